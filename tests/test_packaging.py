@@ -1,0 +1,76 @@
+"""The repository layout and the one-way dependency rule of DEVELOPERS.md."""
+
+from __future__ import annotations
+
+import ast
+import tomllib
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+LAYERS = ["envs", "planners", "baselines", "experiments"]  # lower layers first
+
+
+def _pyproject() -> dict:
+    return tomllib.loads((ROOT / "pyproject.toml").read_text())
+
+
+def _package_folders() -> list[Path]:
+    folders = []
+    for layer in LAYERS:
+        for init in sorted((ROOT / layer).rglob("__init__.py")):
+            folders.append(init.parent.relative_to(ROOT))
+    return folders
+
+
+def test_every_package_folder_is_listed_in_pyproject() -> None:
+    setuptools_cfg = _pyproject()["tool"]["setuptools"]
+    package_dir = setuptools_cfg["package-dir"]
+    packages = set(setuptools_cfg["packages"])
+    assert _package_folders(), "no package folders found"
+    for folder in _package_folders():
+        name = "infoseek." + ".".join(folder.parts)
+        assert name in packages, f"{folder} is not listed as {name} in pyproject packages"
+        assert Path(package_dir[name]) == folder, f"{name} must map to {folder}"
+    for name, path in package_dir.items():
+        assert (ROOT / path / "__init__.py").is_file(), f"{name} -> {path} has no __init__.py"
+
+
+def test_every_layer_ships_py_typed() -> None:
+    for layer in LAYERS:
+        assert (ROOT / layer / "py.typed").is_file(), f"{layer}/py.typed is missing"
+
+
+def _imported_modules(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text(), filename=str(path))
+    names: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names.add(node.module)
+    return names
+
+
+@pytest.mark.parametrize("layer", LAYERS)
+def test_dependencies_point_one_way(layer: str) -> None:
+    higher = LAYERS[LAYERS.index(layer) + 1 :]
+    for path in sorted((ROOT / layer).rglob("*.py")):
+        for module in _imported_modules(path):
+            parts = module.split(".")
+            assert parts[0] not in LAYERS, (
+                f"{path.relative_to(ROOT)} imports bare {module!r}; use infoseek.{module}"
+            )
+            if parts[0] == "infoseek" and len(parts) > 1:
+                assert parts[1] not in higher, (
+                    f"{path.relative_to(ROOT)} imports {module}: {layer} must not import upward"
+                )
+
+
+def test_test_command_of_readme_is_what_ci_runs() -> None:
+    readme = (ROOT / "README.md").read_text()
+    ci = (ROOT / ".ci" / "run").read_text()
+    test_command = 'pip install -e ".[test]" && pytest'
+    assert test_command in readme
+    assert test_command in ci.splitlines()
