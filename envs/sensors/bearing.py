@@ -1,0 +1,413 @@
+r"""Bearings-only sensor with a wrapped-normal likelihood (section IV.A of the paper).
+
+Measurement model
+-----------------
+A vehicle at planar position :math:`(x, y)` measures the bearing of the ray to the target
+:math:`\theta = (x_t, y_t)`,
+
+.. math::
+
+    z = \operatorname{wrap}\bigl(\operatorname{atan2}(y_t - y, x_t - x) + \eta\bigr),
+    \qquad \eta \sim \mathcal N(0, \sigma^2),
+
+with :math:`\operatorname{wrap}` mapping angles into :math:`[-\pi, \pi)`. The observation is
+therefore a *wrapped normal* variable centred at the predicted bearing :math:`\mu`:
+
+.. math::
+
+    p(z \mid \theta) = \sum_{k \in \mathbb Z} \frac{1}{\sigma\sqrt{2\pi}}
+        \exp\Bigl(-\frac{(r + 2\pi k)^2}{2\sigma^2}\Bigr),
+    \qquad r = \operatorname{wrap}(z - \mu) \in [-\pi, \pi).
+
+Evaluation (exact to double precision)
+--------------------------------------
+*Image sum* (``sigma < 2``). The distances :math:`|r + 2\pi k|` in increasing order are
+:math:`|r|,\ 2\pi - |r|,\ 2\pi + |r|,\ 4\pi - |r|, \dots`. Factoring out the dominant term,
+
+.. math::
+
+    \log p = -\frac{r^2}{2\sigma^2} - \log(\sigma\sqrt{2\pi})
+        + \log\Bigl(1 + \sum_{j \ge 1} e^{-(d_j^2 - r^2) / (2\sigma^2)}\Bigr),
+
+where :math:`d_j` are the further distances. Every exponent is non-positive, so nothing
+overflows and the ``log1p`` keeps full relative accuracy (also near :math:`|r| = \pi`, where the
+first image is as large as the main term). Image :math:`j` has
+:math:`d_j^2 - r^2 \ge 4\pi^2 m (m \pm 1)`-type lower bounds; the constructor keeps images
+until the smallest omitted relative term is below :math:`e^{-42} \approx 6\times10^{-19}`
+(one extra term for ``sigma < 0.97``, five for ``sigma`` just below 2; terms that are
+negligible for every :math:`|r| \le \pi` are skipped).
+
+*Theta (Fourier) series* (``sigma >= 2``). By Poisson summation,
+
+.. math::
+
+    p(z \mid \theta) = \frac{1}{2\pi}\Bigl(1 + 2\sum_{n \ge 1} e^{-n^2\sigma^2/2}\cos(n r)\Bigr),
+
+truncated when :math:`e^{-n^2\sigma^2/2} < e^{-42}` (at most five terms). For
+``sigma >= 2`` the bracket is at least ``0.7``, so there is no cancellation.
+
+Bin probabilities
+-----------------
+For the mutual-information code, :meth:`BearingSensor.bin_probabilities` returns the exact mass
+of each bin :math:`[a, b)`:
+:math:`\sum_k \Phi((b - \mu + 2\pi k)/\sigma) - \Phi((a - \mu + 2\pi k)/\sigma)` (image sum,
+differences of the normal CDF taken on the accurate side of zero), or, for ``sigma >= 2``,
+:math:`(b - a)/(2\pi) + \frac1\pi\sum_n e^{-n^2\sigma^2/2}
+(\sin n(b - \mu) - \sin n(a - \mu))/n`.
+
+This module also holds the small validation helpers shared by the other sensor modules.
+"""
+
+from __future__ import annotations
+
+import math
+from numbers import Real
+
+import numpy as np
+from scipy.special import ndtr
+
+from infoseek.envs.sensors.base import FloatArray, ObservationDomain
+
+__all__ = ["BearingSensor"]
+
+TWO_PI = 2.0 * math.pi
+LOG_SQRT_2PI = 0.5 * math.log(TWO_PI)
+# Relative size below which an omitted image/Fourier term is negligible (e^-42 ~ 5.7e-19).
+_NEGLIGIBLE_EXPONENT = 42.0
+# Above this noise level the theta series needs fewer terms than the image sum.
+_FOURIER_SIGMA = 2.0
+
+
+# ---------------------------------------------------------------------------------------------
+# Validation helpers shared by the sensor modules (not part of the public API).
+# ---------------------------------------------------------------------------------------------
+
+
+def check_positive(value: object, name: str, owner: str) -> float:
+    """Return ``value`` as a float, raising unless it is a finite real number ``> 0``."""
+    if isinstance(value, bool) or not isinstance(value, Real):
+        raise TypeError(f"{owner}: {name} must be a real number, got {type(value).__name__}")
+    result = float(value)
+    if not (math.isfinite(result) and result > 0.0):
+        raise ValueError(f"{owner}: {name} must be finite and > 0, got {value!r}")
+    return result
+
+
+def as_points(array: object, name: str, last_dim: int, owner: str) -> FloatArray:
+    """Convert to a finite float64 array of shape ``(..., last_dim)``."""
+    try:
+        result = np.asarray(array, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise TypeError(f"{owner}: {name} must be a float array, got {type(array).__name__}") from (
+            error
+        )
+    if result.ndim < 1 or result.shape[-1] != last_dim:
+        raise ValueError(f"{owner}: {name} must have shape (..., {last_dim}), got {result.shape}")
+    if not np.isfinite(result).all():
+        raise ValueError(f"{owner}: {name} must be finite (got NaN or inf)")
+    return result
+
+
+def as_particles(
+    particles: object, name: str, dim: int, owner: str, *, allow_wider: bool = False
+) -> FloatArray:
+    """Convert to a finite float64 array of shape ``(N, dim)`` (``(N, >= dim)`` if allowed)."""
+    try:
+        result = np.asarray(particles, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise TypeError(
+            f"{owner}: {name} must be a float array, got {type(particles).__name__}"
+        ) from error
+    width_ok = result.ndim == 2 and (
+        result.shape[1] >= dim if allow_wider else result.shape[1] == dim
+    )
+    if not width_ok:
+        expected = f"(N, >= {dim})" if allow_wider else f"(N, {dim})"
+        raise ValueError(f"{owner}: {name} must have shape {expected}, got {result.shape}")
+    if not np.isfinite(result).all():
+        raise ValueError(f"{owner}: {name} must be finite (got NaN or inf)")
+    return result
+
+
+def check_rng(rng: object, owner: str) -> np.random.Generator:
+    """Raise TypeError unless ``rng`` is a :class:`numpy.random.Generator`."""
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(f"{owner}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    return rng
+
+
+def as_edges(edges: object, domain: ObservationDomain, owner: str) -> FloatArray:
+    """Validate bin edges: ``(Q+1,)``, finite, strictly increasing, ``Q >= 1``.
+
+    For a periodic domain the edges must also lie in ``[low, high]`` (so that every bin is an
+    ordinary sub-interval of one period).
+    """
+    result = np.asarray(edges, dtype=np.float64)
+    if result.ndim != 1 or result.shape[0] < 2:
+        raise ValueError(f"{owner}: edges must have shape (Q+1,) with Q >= 1, got {result.shape}")
+    if not np.isfinite(result).all():
+        raise ValueError(f"{owner}: edges must be finite")
+    if not (np.diff(result) > 0.0).all():
+        raise ValueError(f"{owner}: edges must be strictly increasing")
+    if domain.periodic[0]:
+        low, high = domain.low[0], domain.high[0]
+        tol = 1e-9 * (high - low)
+        if result[0] < low - tol or result[-1] > high + tol:
+            raise ValueError(
+                f"{owner}: edges must lie within the observation domain [{low}, {high}], got "
+                f"[{result[0]}, {result[-1]}]"
+            )
+    return result
+
+
+def wrap_into(x: FloatArray, low: float, period: float) -> FloatArray:
+    """Wrap ``x`` into ``[low, low + period)`` (guarding the float rounding to ``low + period``)."""
+    shifted = np.subtract(x, low)
+    wrapped = shifted - period * np.floor(shifted * (1.0 / period))
+    # Rounding can leave the result a hair outside [0, period); fold it back.
+    wrapped[wrapped >= period] -= period
+    wrapped[wrapped < 0.0] += period
+    wrapped += low
+    return wrapped
+
+
+def normal_bin_masses(x: FloatArray) -> FloatArray:
+    """Standard normal mass of the bins between consecutive points along the last axis.
+
+    Args:
+        x: ``(..., Q+1)`` standardised bin edges, increasing along the last axis.
+
+    Returns:
+        ``(..., Q)`` values ``Phi(x[q+1]) - Phi(x[q])``, differenced on the accurate side of zero
+        (upper-tail probabilities when the bin lies above the mean), so tiny tail masses keep
+        their relative accuracy.
+    """
+    cdf = ndtr(x)
+    sf = ndtr(-x)
+    upper = x[..., :-1] > 0.0
+    return np.where(upper, sf[..., :-1] - sf[..., 1:], cdf[..., 1:] - cdf[..., :-1])
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+class BearingSensor:
+    """Bearings-only sensor: noisy angle of the ray from the vehicle to the target.
+
+    Observation ``z`` in ``[-pi, pi)`` (periodic); wrapped-normal likelihood (module docstring).
+
+    Attributes:
+        name: ``"bearing"``.
+        pose_dim: 2 (vehicle position ``(x, y)``).
+        target_dim: 2 (target position ``(x_t, y_t)``; wider particles use the first two).
+        obs_dim: 1.
+        domain: ``[-pi, pi)``, periodic.
+        sigma: Standard deviation of the (unwrapped) Gaussian bearing noise, radians.
+    """
+
+    name = "bearing"
+    pose_dim = 2
+    target_dim = 2
+    obs_dim = 1
+
+    def __init__(self, sigma: float = 0.1) -> None:
+        """Create the sensor.
+
+        Args:
+            sigma: Bearing noise standard deviation in radians, finite and ``> 0``.
+
+        Raises:
+            ValueError: If ``sigma`` is not finite or not positive.
+            TypeError: If ``sigma`` is not a real number.
+        """
+        self.sigma = check_positive(sigma, "sigma", "BearingSensor")
+        self.domain = ObservationDomain(low=(-math.pi,), high=(math.pi,), periodic=(True,))
+        s2 = self.sigma**2
+        self._use_fourier = self.sigma >= _FOURIER_SIGMA
+        if self._use_fourier:
+            n_terms = max(1, math.ceil(math.sqrt(2.0 * _NEGLIGIBLE_EXPONENT) / self.sigma))
+            n = np.arange(1, n_terms + 1, dtype=np.float64)
+            self._fourier_n = n
+            self._fourier_coef = np.exp(-0.5 * n**2 * s2)
+        else:
+            # Image pairs m = 1, 2, ...: distances 2 pi m - |r| and 2 pi m + |r|. The smallest
+            # relative exponent of pair m is (4 pi^2 m (m - 1)) / (2 s^2) (at |r| = pi); keep
+            # pairs until the first omitted pair is negligible.
+            m = 1
+            while 4.0 * math.pi**2 * m * (m + 1) / (2.0 * s2) < _NEGLIGIBLE_EXPONENT:
+                m += 1
+            self._n_image_pairs = m
+            # (a, sign) of every image term a + sign |r| that can matter (relative exponent
+            # > -42 somewhere on |r| in [0, pi]).
+            self._image_terms: list[tuple[float, float]] = []
+            for k in range(1, m + 1):
+                a = TWO_PI * k
+                self._image_terms.append((a, -1.0))
+                if a * a / (2.0 * s2) < _NEGLIGIBLE_EXPONENT:
+                    self._image_terms.append((a, 1.0))
+            # CDF images: argument (d + 2 pi k)/s with |d| <= 2 pi; |k| <= K suffices once
+            # 2 pi K / s >= 9 (Phi(-9) ~ 1e-19).
+            n_cdf = max(1, math.ceil(9.0 * self.sigma / TWO_PI))
+            self._cdf_shifts = TWO_PI * np.arange(-n_cdf, n_cdf + 1, dtype=np.float64)
+        self._log_norm = -math.log(self.sigma) - LOG_SQRT_2PI
+
+    def __repr__(self) -> str:
+        return f"BearingSensor(sigma={self.sigma!r})"
+
+    # -- model ------------------------------------------------------------------------------
+
+    def predict(self, poses: FloatArray, particles: FloatArray) -> FloatArray:
+        """Noise-free bearings.
+
+        Args:
+            poses: ``(..., 2)`` vehicle positions.
+            particles: ``(N, >= 2)`` target hypotheses (first two coordinates used).
+
+        Returns:
+            ``(..., N, 1)`` bearings in ``[-pi, pi)``.
+        """
+        poses = as_points(poses, "poses", 2, "BearingSensor.predict")
+        particles = as_particles(
+            particles, "particles", 2, "BearingSensor.predict", allow_wider=True
+        )
+        return self._bearing(poses, particles)[..., None]
+
+    def _bearing(
+        self, poses: FloatArray, particles: FloatArray, *, wrap: bool = True
+    ) -> FloatArray:
+        """``(..., N)`` bearings in ``[-pi, pi)`` (``(-pi, pi]`` unless ``wrap``).
+
+        Inputs are already validated.
+        """
+        dx = particles[:, 0] - poses[..., 0, None]
+        dy = particles[:, 1] - poses[..., 1, None]
+        angle = np.arctan2(dy, dx)
+        if wrap:
+            # atan2 returns (-pi, pi]; map pi to -pi.
+            angle[angle >= math.pi] -= TWO_PI
+        return angle
+
+    def noise_log_density(self, residual: FloatArray) -> FloatArray:
+        """Log density of the wrapped-normal noise.
+
+        Args:
+            residual: ``(..., 1)`` values of ``z - predict`` (any real; wrapped internally).
+
+        Returns:
+            ``(...)`` log densities.
+        """
+        residual = as_points(residual, "residual", 1, "BearingSensor.noise_log_density")
+        return self._wrapped_log_density(residual[..., 0])
+
+    def _wrapped_log_density(self, residual: FloatArray) -> FloatArray:
+        r = np.abs(wrap_into(residual, -math.pi, TWO_PI))
+        if self._use_fourier:
+            cos_terms = np.cos(np.multiply.outer(r, self._fourier_n)) @ self._fourier_coef
+            return np.log1p(2.0 * cos_terms) - math.log(TWO_PI)
+        inv_2s2 = 0.5 / self.sigma**2
+        # Image at distance a - |r| (a = 2 pi m) has relative exponent -(a^2 - 2 a |r|)/(2 s^2),
+        # the one at a + |r| has -(a^2 + 2 a |r|)/(2 s^2). Exponents are clipped at -700
+        # (relative terms < 1e-304 are irrelevant next to 1) because underflowing exp() into
+        # subnormals is an order of magnitude slower.
+        total = np.zeros_like(r)
+        for a, sign in self._image_terms:
+            arg = r * (-sign * 2.0 * a * inv_2s2)
+            arg -= a * a * inv_2s2
+            np.maximum(arg, -700.0, out=arg)
+            total += np.exp(arg, out=arg)
+        result = np.log1p(total, out=total)
+        result -= r * r * inv_2s2
+        result += self._log_norm
+        return result
+
+    # -- Sensor protocol ----------------------------------------------------------------------
+
+    def sample(
+        self, poses: FloatArray, targets: FloatArray, rng: np.random.Generator
+    ) -> FloatArray:
+        """Draw noisy bearings.
+
+        Args:
+            poses: ``(..., 2)`` vehicle positions.
+            targets: ``(..., >= 2)`` target states, broadcasting against ``poses``.
+            rng: Source of the bearing noise.
+
+        Returns:
+            ``(..., 1)`` bearings in ``[-pi, pi)``.
+        """
+        owner = "BearingSensor.sample"
+        rng = check_rng(rng, owner)
+        poses = as_points(poses, "poses", 2, owner)
+        targets = np.asarray(targets, dtype=np.float64)
+        if targets.ndim < 1 or targets.shape[-1] < 2:
+            raise ValueError(f"{owner}: targets must have shape (..., 2), got {targets.shape}")
+        targets = as_points(targets[..., :2], "targets", 2, owner)
+        try:
+            delta = targets - poses
+        except ValueError as error:
+            raise ValueError(
+                f"{owner}: batch shapes of poses {poses.shape} and targets {targets.shape} "
+                "do not broadcast"
+            ) from error
+        mean = np.arctan2(delta[..., 1], delta[..., 0])
+        noisy = mean + self.sigma * rng.standard_normal(mean.shape)
+        return wrap_into(noisy, -math.pi, TWO_PI)[..., None]
+
+    def log_likelihood(self, z: FloatArray, poses: FloatArray, particles: FloatArray) -> FloatArray:
+        """Wrapped-normal ``log p(z | theta)`` for every particle.
+
+        Args:
+            z: ``(..., 1)`` observed bearings (any real; wrapped internally).
+            poses: ``(..., 2)`` vehicle positions; batch shape broadcasts against ``z``.
+            particles: ``(N, >= 2)`` target hypotheses.
+
+        Returns:
+            ``(..., N)`` log densities on ``[-pi, pi)``.
+        """
+        owner = "BearingSensor.log_likelihood"
+        z = as_points(z, "z", 1, owner)
+        poses = as_points(poses, "poses", 2, owner)
+        particles = as_particles(particles, "particles", 2, owner, allow_wider=True)
+        check_broadcast(z, poses, owner)
+        residual = z[..., 0, None] - self._bearing(poses, particles, wrap=False)
+        return self._wrapped_log_density(residual)
+
+    def bin_probabilities(
+        self, edges: FloatArray, poses: FloatArray, particles: FloatArray
+    ) -> FloatArray:
+        """Exact probability that ``z`` falls in each bin ``[edges[q], edges[q+1])``.
+
+        Args:
+            edges: ``(Q+1,)`` strictly increasing edges within ``[-pi, pi]``.
+            poses: ``(..., 2)`` vehicle positions.
+            particles: ``(N, >= 2)`` target hypotheses.
+
+        Returns:
+            ``(..., N, Q)`` bin probabilities (rows sum to 1 when the edges span the domain).
+        """
+        owner = "BearingSensor.bin_probabilities"
+        edges = as_edges(edges, self.domain, owner)
+        poses = as_points(poses, "poses", 2, owner)
+        particles = as_particles(particles, "particles", 2, owner, allow_wider=True)
+        mu = self._bearing(poses, particles)[..., None]  # (..., N, 1)
+        d = edges - mu  # (..., N, Q+1), within [-2 pi, 2 pi]
+        if self._use_fourier:
+            da, db = d[..., :-1], d[..., 1:]
+            widths = np.diff(edges) / TWO_PI
+            total = np.zeros(d.shape[:-1] + (edges.shape[0] - 1,))
+            for n, coef in zip(self._fourier_n, self._fourier_coef, strict=True):
+                total += (coef / (math.pi * n)) * (np.sin(n * db) - np.sin(n * da))
+            return np.clip(widths + total, 0.0, 1.0)
+        x = (d[..., None, :] + self._cdf_shifts[:, None]) * (1.0 / self.sigma)  # (..., N, K, Q+1)
+        probs = normal_bin_masses(x).sum(axis=-2)
+        return np.clip(probs, 0.0, 1.0)
+
+
+def check_broadcast(z: FloatArray, poses: FloatArray, owner: str) -> None:
+    """Raise ValueError naming both arguments unless the batch shapes broadcast."""
+    try:
+        np.broadcast_shapes(z.shape[:-1], poses.shape[:-1])
+    except ValueError as error:
+        raise ValueError(
+            f"{owner}: batch shapes of z {z.shape} and poses {poses.shape} do not broadcast"
+        ) from error

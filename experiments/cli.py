@@ -1,0 +1,340 @@
+"""The ``infoseek`` command.
+
+Subcommands:
+
+* ``infoseek demo``: the main job on its embedded defaults (bearings-only search, 4 airplanes,
+  2000 particles each, the pairwise-node planner); prints one line per step and writes an animated
+  GIF and a final PNG of the search.
+* ``infoseek timing``: the speed benchmarks of the planners issue (mutual information, planning
+  steps, environment steps), printed as a table with the machine they ran on.
+* ``infoseek bench``: Monte Carlo trials of (environment, planner, number of agents) over seeds,
+  every finished trial appended to a resumable results store
+  (:mod:`infoseek.experiments.bench`, :mod:`infoseek.experiments.store`), then a summary table.
+* ``infoseek plot DIR``: the paper's Fig. 1 from a results store
+  (:mod:`infoseek.experiments.plot`).
+* ``infoseek reproduce fig1|fig2``: the trials and plots of the paper's figures with the paper's
+  settings (:mod:`infoseek.experiments.reproduce`).
+
+Errors in the arguments or the results directory print ``infoseek COMMAND: error: ...`` on
+stderr and make :func:`main` return 2; nothing already stored is changed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from infoseek.experiments.demo import add_demo_arguments, run_demo
+from infoseek.experiments.timing import add_timing_arguments, run_timing
+
+#: Exit code of an interrupted (Ctrl-C) run: the stored trials are kept, a rerun resumes.
+EXIT_INTERRUPTED = 130
+
+
+def _int_list(text: str) -> list[int]:
+    """``"2,3,4"`` or ``"4"`` -> list of ints (argparse type)."""
+    try:
+        return [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected integers like 4 or 2,3,4, got {text!r}")
+
+
+def _key_value(text: str) -> tuple[str, Any]:
+    """``KEY=VALUE`` with VALUE parsed as JSON when possible (argparse type)."""
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
+    try:
+        return key, json.loads(value)
+    except ValueError:
+        return key, value
+
+
+def _default_workers() -> int:
+    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1)
+
+
+def _add_execution_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--workers", type=int, default=None, help="parallel workers (default: the CPUs available)"
+    )
+    parser.add_argument(
+        "--backend",
+        choices=("serial", "process", "ray"),
+        default=None,
+        help="where trials run (default: serial for 1 worker, else process)",
+    )
+    parser.add_argument(
+        "--address", default=None, help="address of an existing Ray cluster (--backend ray)"
+    )
+    parser.add_argument(
+        "--no-progress", action="store_true", help="no progress bar (default: on a terminal)"
+    )
+
+
+def add_bench_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``infoseek bench``."""
+    parser.add_argument("--env", default="bearings_v0", help="environment id (default bearings_v0)")
+    parser.add_argument(
+        "--planner",
+        action="append",
+        default=None,
+        help="scripted planner (repeatable; default pairwise): "
+        "pairwise, single, joint, random, lawnmower, or package.module:factory",
+    )
+    parser.add_argument(
+        "--policy",
+        action="append",
+        default=None,
+        metavar="PATH",
+        help="trained RL policy to benchmark (repeatable; needs infoseek.baselines.load_policy)",
+    )
+    parser.add_argument(
+        "--agents",
+        type=_int_list,
+        nargs="+",
+        default=None,
+        help="agent counts, e.g. --agents 2 3 4 10 or --agents 2,3,4 (default 4)",
+    )
+    parser.add_argument("--trials", type=int, default=100, help="trials per planner and count")
+    parser.add_argument(
+        "--steps", type=int, default=None, help="steps per trial (default: env's max_cycles)"
+    )
+    parser.add_argument("--seed", type=int, default=0, help="root seed of the run")
+    parser.add_argument(
+        "--particles", type=int, default=None, help="particles per belief (default: env's)"
+    )
+    parser.add_argument(
+        "--env-kwarg",
+        type=_key_value,
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="extra environment keyword (VALUE parsed as JSON), repeatable",
+    )
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="results directory (default infoseek-out/bench-ENV-seedSEED)",
+    )
+    _add_execution_arguments(parser)
+
+
+def _execution(args: argparse.Namespace) -> tuple[str, int]:
+    workers = args.workers if args.workers is not None else _default_workers()
+    if workers < 1:
+        raise ValueError(f"--workers must be >= 1, got {workers}")
+    backend = args.backend or ("serial" if workers == 1 else "process")
+    if args.address and backend != "ray":
+        raise ValueError("--address only applies to --backend ray")
+    return backend, workers
+
+
+def run_bench_command(args: argparse.Namespace) -> int:
+    """``infoseek bench``: run the missing trials, store them, print the summary."""
+    from infoseek.experiments.bench import (
+        BenchPlan,
+        check_env_id,
+        check_planner,
+        check_policy_path,
+        default_steps,
+    )
+
+    if args.trials < 1:
+        raise ValueError(f"--trials must be >= 1, got {args.trials}")
+    if args.steps is not None and args.steps < 1:
+        raise ValueError(f"--steps must be >= 1, got {args.steps}")
+    if args.particles is not None and args.particles < 1:
+        raise ValueError(f"--particles must be >= 1, got {args.particles}")
+    backend, workers = _execution(args)
+    check_env_id(args.env)
+    planners = list(dict.fromkeys(args.planner or ([] if args.policy else ["pairwise"])))
+    for planner in planners:
+        check_planner(planner)
+    planners += [check_policy_path(path) for path in args.policy or []]
+    agents = sorted({n for group in (args.agents or [[4]]) for n in group})
+    if any(n < 1 for n in agents):
+        raise ValueError(f"--agents must be >= 1, got {agents}")
+    env_kwargs = dict(args.env_kwarg)
+    if args.particles is not None:
+        env_kwargs["n_particles"] = args.particles
+    steps = args.steps if args.steps is not None else default_steps(args.env, env_kwargs)
+    plan = BenchPlan(
+        env=args.env,
+        env_kwargs=env_kwargs,
+        steps=steps,
+        seed=args.seed,
+        groups=[(planner, n) for planner in planners for n in agents],
+        trials=args.trials,
+    )
+    out = args.out if args.out is not None else Path("infoseek-out") / f"bench-{args.env}-seed{args.seed}"
+    return _run_and_summarise(plan, out, backend, workers, args)
+
+
+def _run_and_summarise(
+    plan: Any, out: Path, backend: str, workers: int, args: argparse.Namespace
+) -> int:
+    """Run ``plan`` into the store ``out`` and print the summary; returns the exit code."""
+    from infoseek.experiments.bench import (
+        TrialFailedError,
+        format_summary,
+        run_bench,
+        summarise,
+    )
+
+    total = len(plan.groups) * plan.trials
+    print(
+        f"bench {plan.env}: {len(plan.groups)} group(s) x {plan.trials} trials, {plan.steps} steps,"
+        f" seed {plan.seed}, backend {backend} ({workers} worker(s)) -> {out}",
+        flush=True,
+    )
+    try:
+        result = run_bench(
+            plan,
+            out,
+            backend=backend,
+            workers=workers,
+            address=args.address,
+            progress=False if args.no_progress else None,
+        )
+    except KeyboardInterrupt:
+        print(
+            f"infoseek {args.command}: interrupted; finished trials are stored in {out}, "
+            "rerun the same command to resume",
+            file=sys.stderr,
+        )
+        return EXIT_INTERRUPTED
+    except TrialFailedError as error:
+        print(
+            f"infoseek {args.command}: error: {error}; earlier trials are stored in {out}",
+            file=sys.stderr,
+        )
+        return 1
+    print(f"{result.ran} trial(s) run, {result.skipped} of {total} already stored")
+    print(format_summary(summarise(result.records, plan.steps), plan.steps))
+    return 0
+
+
+def add_plot_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``infoseek plot``."""
+    parser.add_argument("directory", type=Path, help="results directory written by bench")
+    parser.add_argument(
+        "--out", type=Path, default=None, help="output stem (default DIRECTORY/fig1)"
+    )
+
+
+def run_plot_command(args: argparse.Namespace) -> int:
+    """``infoseek plot DIR``: Fig. 1 (PNG and SVG) from a results store."""
+    from infoseek.experiments.plot import plot_fig1_from_store
+
+    paths = plot_fig1_from_store(args.directory, args.out)
+    for path in paths:
+        print(f"wrote {path}")
+    return 0
+
+
+def add_reproduce_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``infoseek reproduce``."""
+    parser.add_argument("figure", choices=("fig1", "fig2"), help="which figure of the paper")
+    parser.add_argument(
+        "--trials", type=int, default=1000, help="trials per curve (fig1; default 1000)"
+    )
+    parser.add_argument(
+        "--steps", type=int, default=None, help="steps per trial (default: the env's episode)"
+    )
+    parser.add_argument(
+        "--particles", type=int, default=None, help="particles per belief (default: env's 2000)"
+    )
+    parser.add_argument("--seed", type=int, default=0, help="root seed")
+    parser.add_argument(
+        "--out", type=Path, default=None, help="output directory (default infoseek-out/FIGURE)"
+    )
+    _add_execution_arguments(parser)
+
+
+def run_reproduce_command(args: argparse.Namespace) -> int:
+    """``infoseek reproduce fig1|fig2``."""
+    from infoseek.experiments import reproduce
+
+    if args.trials < 1:
+        raise ValueError(f"--trials must be >= 1, got {args.trials}")
+    if args.steps is not None and args.steps < 1:
+        raise ValueError(f"--steps must be >= 1, got {args.steps}")
+    if args.particles is not None and args.particles < 1:
+        raise ValueError(f"--particles must be >= 1, got {args.particles}")
+    out = args.out if args.out is not None else Path("infoseek-out") / args.figure
+    if args.figure == "fig2":
+        if args.backend is not None or args.workers is not None or args.address:
+            print("reproduce fig2: one episode; --backend/--workers/--address are ignored")
+        paths = reproduce.reproduce_fig2(
+            out, steps=args.steps, particles=args.particles, seed=args.seed
+        )
+        for path in paths:
+            print(f"wrote {path}")
+        return 0
+    backend, workers = _execution(args)
+    plan = reproduce.fig1_plan(
+        trials=args.trials, steps=args.steps, particles=args.particles, seed=args.seed
+    )
+    store = out / "store"
+    code = _run_and_summarise(plan, store, backend, workers, args)
+    if code != 0:
+        return code
+    from infoseek.experiments.plot import plot_fig1_from_store
+
+    for path in plot_fig1_from_store(store, out / "fig1"):
+        print(f"wrote {path}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``infoseek`` command."""
+    parser = argparse.ArgumentParser(
+        prog="infoseek",
+        description="Information-seeking mobile sensor networks (Hoffmann, Waslander & Tomlin 2006).",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    demo = sub.add_parser("demo", help="run one search episode and write a GIF and a PNG of it")
+    add_demo_arguments(demo)
+    demo.set_defaults(handler=run_demo)
+    timing = sub.add_parser("timing", help="measure mutual-information, planning and env-step speed")
+    add_timing_arguments(timing)
+    timing.set_defaults(handler=run_timing)
+    bench = sub.add_parser(
+        "bench", help="Monte Carlo trials of planners over seeds into a resumable results store"
+    )
+    add_bench_arguments(bench)
+    bench.set_defaults(handler=run_bench_command)
+    plot = sub.add_parser("plot", help="the paper's Fig. 1 from a bench results directory")
+    add_plot_arguments(plot)
+    plot.set_defaults(handler=run_plot_command)
+    reproduce = sub.add_parser(
+        "reproduce", help="run and plot the paper's Fig. 1 or Fig. 2 with its settings"
+    )
+    add_reproduce_arguments(reproduce)
+    reproduce.set_defaults(handler=run_reproduce_command)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the console script; returns the process exit code."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exit_:  # argparse: --help (0) or a usage error (2, message printed)
+        return exit_.code if isinstance(exit_.code, int) else 2
+    try:
+        return int(args.handler(args) or 0)
+    except (ValueError, TypeError) as error:
+        print(f"infoseek {args.command}: error: {error}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
