@@ -1,0 +1,601 @@
+"""Particle-filter belief over the target state (section III.A of Hoffmann et al. 2006).
+
+The posterior ``p_t(theta)`` is approximated by ``N`` weighted particles (eq. 11),
+
+    p_t(theta) ~= sum_k w_k delta(theta - theta_k).
+
+Weights are stored as normalised log-weights (``logsumexp(log_w) = 0``) so that products of
+many sharp likelihoods never underflow.
+
+One filter cycle (:meth:`ParticleBelief.predict`, :meth:`~ParticleBelief.update`,
+:meth:`~ParticleBelief.resample_if_needed`):
+
+1. *Predict*: each particle is propagated by the target motion model.
+2. *Update* (Bayes' rule, eq. 4): with the ``M`` conditionally independent observations
+   ``z^{(j)}`` received this step (own and shared, eq. 14),
+   ``log w_k <- log w_k + sum_j log p(z^{(j)} | theta_k) - log E``, where the log evidence
+   ``log E = logsumexp_k(log w_k + sum_j log p(z^{(j)} | theta_k))`` estimates
+   ``log p(z_{1..M} | past)``.
+3. *Resample* when ``ESS = 1 / sum w_k^2 < resample_threshold * N`` with the systematic
+   low-variance sampler (O(N), as in the paper; threshold 1.0 = after every informative update).
+   A stationary target has no process noise, so resampling alone would collapse the particle
+   set onto ever fewer distinct points. After resampling we therefore apply Gordon *roughening*
+   (Gordon, Salmond & Smith 1993): every coordinate ``j`` gets Gaussian jitter of standard
+   deviation ``roughening * E_j * N^(-1/d)``, ``E_j`` the spread (max - min) of the resampled
+   particles in coordinate ``j`` (for periodic angles, measured around the circular/axial mean),
+   floored at ``SPREAD_FLOOR = 1e-3`` of the domain width so that a set collapsed onto one point
+   is separated again.
+   Positions are reflected back into the box, angles wrapped.
+
+Degeneracy recovery: if ``log E`` is not finite or below ``-700`` (every weight would underflow
+in float64; the observations are impossible under every particle), a fraction
+``recovery_fraction`` of the particles is replaced by fresh samples of the uniform prior ``p_0``,
+the remaining particles are drawn (systematically) from the pre-update weights, all weights are
+set uniform and this step's likelihood is reapplied. If the update is still degenerate the
+observations are dropped and the pre-update particles and weights are kept. Either way the
+returned :class:`BeliefUpdate` has ``recovered=True``; no NaN is ever produced.
+
+Estimates:
+
+* MMSE estimate (eq. 12) ``theta_hat = sum_k w_k theta_k`` for linear coordinates; for periodic
+  angles the circular mean ``arg(sum_k w_k e^{i phi_k})`` (``phi`` the angle scaled to
+  ``[0, 2 pi)``); for axial angles the axial mean ``arg(sum_k w_k e^{2 i phi_k}) / 2``.
+* Posterior mass within a radius (the metric of Fig. 1): ``sum_k w_k [||p_k - c|| <= r]`` over
+  the position coordinates ``p_k``, ``c`` the MMSE position by default.
+* Entropy (eq. 6): the differential entropy of the piecewise-constant (histogram) density on a
+  fixed grid of ``B = prod_j b_j`` equal cells over the whole domain ``Theta``,
+  ``H = -sum_c P_c log(P_c / V_c)`` with ``P_c`` the particle mass in cell ``c`` and
+  ``V_c = vol(Theta) / B`` its volume. A uniform belief over a 40 x 40 box gives
+  ``log(1600)``; a belief inside a single cell gives ``log(V_c)`` (the estimator's floor). The
+  grid is fixed so values are comparable across time steps and agents.
+"""
+
+from __future__ import annotations
+
+import copy as _copy
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from infoseek.envs.resampling import systematic_resample
+from infoseek.envs.targets import (
+    StationaryTarget,
+    TargetMotion,
+    TargetSpace,
+    reflect_into_interval,
+)
+
+FloatArray = NDArray[np.float64]
+
+__all__ = [
+    "DEGENERATE_LOG_EVIDENCE",
+    "SPREAD_FLOOR",
+    "BeliefUpdate",
+    "BeliefView",
+    "ParticleBelief",
+]
+
+#: Log evidence below which an update counts as degenerate (exp underflows in float64).
+DEGENERATE_LOG_EVIDENCE = -700.0
+
+#: Roughening spread floor, as a fraction of each coordinate's domain width.
+SPREAD_FLOOR = 1e-3
+
+
+def _readonly(arr: np.ndarray) -> np.ndarray:
+    view = arr.view()
+    view.flags.writeable = False
+    return view
+
+
+def _logsumexp(values: FloatArray) -> float:
+    peak = float(np.max(values))
+    if not np.isfinite(peak):
+        return peak  # -inf (all impossible) or +inf
+    return peak + math.log(float(np.sum(np.exp(values - peak))))
+
+
+@dataclass(frozen=True)
+class BeliefUpdate:
+    """Outcome of :meth:`ParticleBelief.update`.
+
+    Attributes:
+        recovered: Whether the degeneracy recovery ran (observations impossible under every
+            particle).
+        log_evidence: ``logsumexp_k(log w_k + sum_j log p(z_j | theta_k))`` of the attempted
+            update under the pre-update belief (may be ``-inf`` when ``recovered``; 0.0 for no
+            observations).
+        n_observations: Number ``M`` of observations incorporated (0 when they were dropped
+            because even the recovered particle set could not explain them).
+    """
+
+    recovered: bool
+    log_evidence: float
+    n_observations: int
+
+
+@dataclass(frozen=True)
+class BeliefView:
+    """Read-only snapshot of a belief (the arrays are never modified in place later).
+
+    Attributes:
+        particles: ``(N, d)`` read-only particle states.
+        weights: ``(N,)`` read-only normalised weights.
+        log_weights: ``(N,)`` read-only normalised log-weights.
+        space: The target space.
+    """
+
+    particles: FloatArray
+    weights: FloatArray
+    log_weights: FloatArray
+    space: TargetSpace
+
+    def __eq__(self, other: object) -> bool:
+        """Value equality: same space and bit-identical particles and log-weights.
+
+        (The dataclass-generated ``==`` would compare arrays inside a tuple, which raises for
+        ``N > 1``; PettingZoo's determinism checks compare infos with ``==``.)
+        """
+        if not isinstance(other, BeliefView):
+            return NotImplemented
+        return bool(
+            self.space == other.space
+            and np.array_equal(self.particles, other.particles)
+            and np.array_equal(self.log_weights, other.log_weights)
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+def _angle_scale(space: TargetSpace) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Indices of periodic dims, their lows, periods and the harmonic (2 axial, 1 circular)."""
+    idx = np.flatnonzero(space.periodic_mask)
+    low = space.low_array[idx]
+    period = space.high_array[idx] - low
+    harmonic = np.where(space.axial_mask[idx], 2.0, 1.0)
+    return idx, low, period, harmonic
+
+
+class ParticleBelief:
+    """Weighted particle approximation of the target posterior (eq. 11).
+
+    Args:
+        particles: ``(N, d)`` initial particle states inside ``space``.
+        space: The target state space.
+        rng: Random generator for prediction noise, resampling, roughening and recovery.
+        log_weights: ``(N,)`` initial log-weights (normalised internally; ``-inf`` allowed,
+            not all). Default uniform.
+        motion: Target motion model (default :class:`StationaryTarget`).
+        resample_threshold: Resample when ``ESS < resample_threshold * N``; 1.0 resamples after
+            every update that makes the weights non-uniform (the paper), 0 never.
+        roughening: Roughening constant ``K``; jitter std ``K * E_j * N^(-1/d)``. 0 disables.
+        entropy_bins: Cells per coordinate of the fixed entropy grid; default 40 per position
+            coordinate and 16 per angle coordinate.
+        recovery_fraction: Fraction of particles replaced by prior samples on degeneracy, in
+            ``(0, 1]``.
+    """
+
+    def __init__(
+        self,
+        particles: FloatArray,
+        space: TargetSpace,
+        rng: np.random.Generator,
+        *,
+        log_weights: FloatArray | None = None,
+        motion: TargetMotion | None = None,
+        resample_threshold: float = 1.0,
+        roughening: float = 0.2,
+        entropy_bins: tuple[int, ...] | None = None,
+        recovery_fraction: float = 0.5,
+    ) -> None:
+        if not isinstance(space, TargetSpace):
+            raise TypeError(f"space must be a TargetSpace, got {type(space).__name__}")
+        if not isinstance(rng, np.random.Generator):
+            raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        p = np.array(particles, dtype=np.float64, copy=True)
+        if p.ndim != 2 or p.shape[0] < 1 or p.shape[1] != space.dim:
+            raise ValueError(
+                f"particles must have shape (N, {space.dim}) with N >= 1, got {p.shape}"
+            )
+        if not np.all(np.isfinite(p)):
+            raise ValueError("particles must be finite (got NaN or inf)")
+        n = p.shape[0]
+        if log_weights is None:
+            lw = np.full(n, -math.log(n))
+        else:
+            lw = np.array(log_weights, dtype=np.float64, copy=True)
+            if lw.shape != (n,):
+                raise ValueError(f"log_weights must have shape ({n},), got {lw.shape}")
+            if np.any(np.isnan(lw)) or np.any(lw == np.inf):
+                raise ValueError("log_weights must not contain NaN or +inf")
+            total = _logsumexp(lw)
+            if not np.isfinite(total):
+                raise ValueError("log_weights must not all be -inf")
+            lw = lw - total
+        if motion is None:
+            motion = StationaryTarget()
+        if not isinstance(motion, TargetMotion):
+            raise TypeError(f"motion must be a TargetMotion, got {type(motion).__name__}")
+        if not (np.isfinite(resample_threshold) and 0.0 <= resample_threshold <= 1.0):
+            raise ValueError(f"resample_threshold must be in [0, 1], got {resample_threshold!r}")
+        if not (np.isfinite(roughening) and roughening >= 0.0):
+            raise ValueError(f"roughening must be a finite float >= 0, got {roughening!r}")
+        if not (np.isfinite(recovery_fraction) and 0.0 < recovery_fraction <= 1.0):
+            raise ValueError(f"recovery_fraction must be in (0, 1], got {recovery_fraction!r}")
+        if entropy_bins is None:
+            bins = tuple(16 if per else 40 for per in space.periodic)
+        else:
+            bins = tuple(entropy_bins)
+            if len(bins) != space.dim or not all(
+                isinstance(b, int | np.integer) and not isinstance(b, bool) and b >= 1 for b in bins
+            ):
+                raise ValueError(
+                    f"entropy_bins must be {space.dim} positive integers, got {entropy_bins!r}"
+                )
+            bins = tuple(int(b) for b in bins)
+
+        self._space = space
+        self._rng = rng
+        self._motion = motion
+        self._resample_threshold = float(resample_threshold)
+        self._roughening = float(roughening)
+        self._recovery_fraction = float(recovery_fraction)
+        self._entropy_bins = bins
+        self._particles = space.wrap(p)
+        self._set_log_weights(lw)
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_prior(
+        cls, space: TargetSpace, n_particles: int, rng: np.random.Generator, **kwargs: Any
+    ) -> ParticleBelief:
+        """Belief with ``n_particles`` samples of the uniform prior ``p_0`` and equal weights.
+
+        Args:
+            space: The target space.
+            n_particles: Number of particles (>= 1).
+            rng: Random generator (used for the samples and kept by the belief).
+            **kwargs: Keyword arguments of the constructor.
+        """
+        if (
+            isinstance(n_particles, bool)
+            or not isinstance(n_particles, int | np.integer)
+            or n_particles < 1
+        ):
+            raise ValueError(f"n_particles must be a positive integer, got {n_particles!r}")
+        if not isinstance(space, TargetSpace):
+            raise TypeError(f"space must be a TargetSpace, got {type(space).__name__}")
+        return cls(space.sample_uniform(int(n_particles), rng), space, rng, **kwargs)
+
+    def copy(self, rng: np.random.Generator | None = None) -> ParticleBelief:
+        """Independent copy of this belief.
+
+        Args:
+            rng: Generator for the copy; by default a copy of this belief's generator state
+                (the copy then draws the same random stream, and this belief's stream is not
+                advanced).
+        """
+        new = object.__new__(ParticleBelief)
+        new.__dict__.update(self.__dict__)
+        new._rng = _copy.deepcopy(self._rng) if rng is None else rng
+        if not isinstance(new._rng, np.random.Generator):
+            raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        # Arrays are never mutated in place, so sharing them is safe.
+        return new
+
+    # ------------------------------------------------------------------ accessors
+    def _set_log_weights(self, log_weights: FloatArray) -> None:
+        self._log_weights = log_weights
+        w = np.exp(log_weights)
+        self._weights = w / w.sum()
+
+    @property
+    def particles(self) -> FloatArray:
+        """``(N, d)`` read-only particle states."""
+        return _readonly(self._particles)
+
+    @property
+    def log_weights(self) -> FloatArray:
+        """``(N,)`` read-only normalised log-weights (``logsumexp = 0``)."""
+        return _readonly(self._log_weights)
+
+    @property
+    def weights(self) -> FloatArray:
+        """``(N,)`` read-only normalised weights."""
+        return _readonly(self._weights)
+
+    @property
+    def n_particles(self) -> int:
+        """Number of particles ``N``."""
+        return int(self._particles.shape[0])
+
+    @property
+    def dim(self) -> int:
+        """Target dimension ``d``."""
+        return self._space.dim
+
+    @property
+    def space(self) -> TargetSpace:
+        """The target space."""
+        return self._space
+
+    @property
+    def motion(self) -> TargetMotion:
+        """The target motion model."""
+        return self._motion
+
+    @property
+    def entropy_bins(self) -> tuple[int, ...]:
+        """Cells per coordinate of the fixed entropy grid."""
+        return self._entropy_bins
+
+    @property
+    def ess(self) -> float:
+        """Effective sample size ``1 / sum w_k^2`` in ``[1, N]``."""
+        return float(1.0 / np.dot(self._weights, self._weights))
+
+    def view(self) -> BeliefView:
+        """Read-only snapshot (arrays are shared, never mutated in place afterwards)."""
+        return BeliefView(
+            particles=self.particles,
+            weights=self.weights,
+            log_weights=self.log_weights,
+            space=self._space,
+        )
+
+    # ------------------------------------------------------------------ filter cycle
+    def predict(self, dt: float = 1.0) -> None:
+        """Propagate every particle with the target motion model over ``dt`` (> 0)."""
+        if isinstance(dt, bool) or not (
+            isinstance(dt, int | float | np.floating | np.integer) and np.isfinite(dt) and dt > 0
+        ):
+            raise ValueError(f"dt must be a positive finite float, got {dt!r}")
+        moved = np.asarray(
+            self._motion.propagate(self._particles, self._space, float(dt), self._rng),
+            dtype=np.float64,
+        )
+        if moved.shape != self._particles.shape or not np.all(np.isfinite(moved)):
+            raise ValueError(
+                f"motion {self._motion!r} returned shape {moved.shape} or non-finite states; "
+                f"expected finite {self._particles.shape}"
+            )
+        self._particles = moved
+
+    def _total_log_likelihood(
+        self, sensor: Any, z: FloatArray, poses: FloatArray, particles: FloatArray
+    ) -> FloatArray:
+        loglik = np.asarray(sensor.log_likelihood(z, poses, particles), dtype=np.float64)
+        expected = (z.shape[0], particles.shape[0])
+        if loglik.shape != expected:
+            raise ValueError(
+                f"sensor {getattr(sensor, 'name', sensor)!r}: log_likelihood returned shape "
+                f"{loglik.shape}, expected {expected}"
+            )
+        total = loglik.sum(axis=0)
+        if np.any(np.isnan(total)) or np.any(total == np.inf):
+            raise ValueError(
+                f"sensor {getattr(sensor, 'name', sensor)!r}: log_likelihood returned NaN or +inf"
+            )
+        return total
+
+    def update(self, sensor: Any, z: FloatArray, poses: FloatArray) -> BeliefUpdate:
+        """Condition on ``M`` conditionally independent observations (eq. 4, eq. 14).
+
+        Args:
+            sensor: A :class:`~infoseek.envs.sensors.base.Sensor`.
+            z: ``(M, obs_dim)`` observations (``M`` may be 0: nothing happens).
+            poses: ``(M, pose_dim)`` poses of the sensors that made them.
+
+        Returns:
+            The :class:`BeliefUpdate` (recovery flag, log evidence, ``M``).
+
+        Raises:
+            TypeError: ``sensor`` has no ``log_likelihood``.
+            ValueError: Shapes inconsistent, non-finite ``z``/``poses``, or the sensor returned
+                NaN.
+        """
+        if not callable(getattr(sensor, "log_likelihood", None)):
+            raise TypeError(
+                f"sensor must implement log_likelihood(z, poses, particles), got "
+                f"{type(sensor).__name__}"
+            )
+        z_arr = np.asarray(z, dtype=np.float64)
+        poses_arr = np.asarray(poses, dtype=np.float64)
+        obs_dim = getattr(sensor, "obs_dim", None)
+        pose_dim = getattr(sensor, "pose_dim", None)
+        if z_arr.ndim != 2 or (obs_dim is not None and z_arr.shape[1] != obs_dim):
+            raise ValueError(f"z must have shape (M, {obs_dim}), got {z_arr.shape}")
+        if poses_arr.ndim != 2 or (pose_dim is not None and poses_arr.shape[1] != pose_dim):
+            raise ValueError(f"poses must have shape (M, {pose_dim}), got {poses_arr.shape}")
+        if poses_arr.shape[0] != z_arr.shape[0]:
+            raise ValueError(
+                f"z and poses must have the same number of rows M, got {z_arr.shape[0]} and "
+                f"{poses_arr.shape[0]}"
+            )
+        if not (np.all(np.isfinite(z_arr)) and np.all(np.isfinite(poses_arr))):
+            raise ValueError("z and poses must be finite (got NaN or inf)")
+        m = int(z_arr.shape[0])
+        if m == 0:
+            return BeliefUpdate(recovered=False, log_evidence=0.0, n_observations=0)
+
+        loglik = self._total_log_likelihood(sensor, z_arr, poses_arr, self._particles)
+        log_post = self._log_weights + loglik
+        log_evidence = _logsumexp(log_post)
+        if np.isfinite(log_evidence) and log_evidence >= DEGENERATE_LOG_EVIDENCE:
+            self._set_log_weights(log_post - log_evidence)
+            return BeliefUpdate(recovered=False, log_evidence=log_evidence, n_observations=m)
+
+        # Degenerate: mix fresh prior samples with survivors of the pre-update belief.
+        n = self.n_particles
+        n_fresh = min(n, max(1, math.ceil(self._recovery_fraction * n)))
+        survivors = systematic_resample(self._weights, self._rng, n - n_fresh)
+        candidate = np.concatenate(
+            [self._particles[survivors], self._space.sample_uniform(n_fresh, self._rng)]
+        )
+        loglik = self._total_log_likelihood(sensor, z_arr, poses_arr, candidate)
+        log_post = loglik - math.log(n)
+        retry_evidence = _logsumexp(log_post)
+        if np.isfinite(retry_evidence) and retry_evidence >= DEGENERATE_LOG_EVIDENCE:
+            self._particles = candidate
+            self._set_log_weights(log_post - retry_evidence)
+            return BeliefUpdate(recovered=True, log_evidence=log_evidence, n_observations=m)
+        # Still impossible: drop the observations and keep the pre-update belief.
+        return BeliefUpdate(recovered=True, log_evidence=log_evidence, n_observations=0)
+
+    def resample_if_needed(self) -> bool:
+        """Systematic resampling plus roughening when ``ESS < resample_threshold * N``.
+
+        Uniform weights (``ESS = N`` up to round-off) are never resampled.
+
+        Returns:
+            Whether resampling happened (weights are then uniform).
+        """
+        n = self.n_particles
+        if self._resample_threshold <= 0.0 or n == 1:
+            return False
+        if not self.ess < self._resample_threshold * n * (1.0 - 1e-9):
+            return False
+        idx = systematic_resample(self._weights, self._rng)
+        particles = self._particles[idx]
+        if self._roughening > 0.0:
+            particles = self._roughen(particles)
+        self._particles = particles
+        self._set_log_weights(np.full(n, -math.log(n)))
+        return True
+
+    def _roughen(self, particles: FloatArray) -> FloatArray:
+        """Gordon roughening of equally weighted ``(N, d)`` particles (see module docstring)."""
+        space = self._space
+        n, d = particles.shape
+        columns = np.ascontiguousarray(particles.T)  # (d, N): fast per-coordinate reductions
+        spread = columns.max(axis=1) - columns.min(axis=1)
+        idx, low, period, harmonic = _angle_scale(space)
+        if idx.size:
+            center = self._angle_means(particles[:, idx], np.full(n, 1.0 / n))
+            half = period / (2.0 * harmonic)  # residuals live in [-half, half)
+            resid = np.mod(columns[idx] - center[:, None] + half[:, None], 2.0 * half[:, None])
+            spread[idx] = resid.max(axis=1) - resid.min(axis=1)
+        # floor: a fully collapsed set (spread 0) would otherwise never be separated again
+        spread = np.maximum(spread, SPREAD_FLOOR * (space.high_array - space.low_array))
+        std = self._roughening * spread * n ** (-1.0 / d)
+        jittered = columns + std[:, None] * self._rng.standard_normal((n, d)).T
+        low_all, high_all = space.low_array, space.high_array
+        for j in np.flatnonzero(~space.periodic_mask):  # loop over coordinates, not particles
+            row = jittered[j]
+            out = np.flatnonzero((row < low_all[j]) | (row > high_all[j]))
+            if out.size:
+                row[out] = reflect_into_interval(row[out], low_all[j], high_all[j])
+        result = np.ascontiguousarray(jittered.T)
+        if idx.size:
+            result = space.wrap(result)
+        return result
+
+    # ------------------------------------------------------------------ estimates
+    def _angle_means(self, angles: FloatArray, weights: FloatArray) -> FloatArray:
+        """Circular/axial weighted means of the ``(N, k)`` periodic coordinates."""
+        _, low, period, harmonic = _angle_scale(self._space)
+        phase = (angles - low) * (2.0 * np.pi * harmonic / period)
+        c = weights @ np.cos(phase)
+        s = weights @ np.sin(phase)
+        mean_phase = np.mod(np.arctan2(s, c), 2.0 * np.pi)
+        mean = low + mean_phase * period / (2.0 * np.pi * harmonic)
+        return np.where(mean >= low + period / harmonic, low, mean)
+
+    def mmse(self) -> FloatArray:
+        """MMSE estimate (eq. 12), circular mean for periodic and axial mean for axial angles.
+
+        Returns:
+            ``(d,)`` estimate. Axial coordinates are reported in ``[low, low + period / 2)``; a
+            periodic coordinate whose resultant vanishes (uniform) is reported as ``low``.
+        """
+        est = self._weights @ self._particles
+        idx = np.flatnonzero(self._space.periodic_mask)
+        if idx.size:
+            est[idx] = self._angle_means(self._particles[:, idx], self._weights)
+        return est
+
+    def mass_within(self, radius: float, center: FloatArray | None = None) -> float:
+        """Posterior mass whose position lies within ``radius`` of ``center`` (Fig. 1 metric).
+
+        Args:
+            radius: Radius (>= 0).
+            center: ``(2,)`` position or ``(d,)`` state (its position part is used); default
+                the MMSE position.
+
+        Returns:
+            Mass in ``[0, 1]``.
+        """
+        if isinstance(radius, bool) or not (
+            isinstance(radius, int | float | np.integer | np.floating)
+            and np.isfinite(radius)
+            and radius >= 0
+        ):
+            raise ValueError(f"radius must be a finite float >= 0, got {radius!r}")
+        if center is None:
+            c = self.mmse()[:2]
+        else:
+            c = np.asarray(center, dtype=np.float64)
+            if c.shape not in ((2,), (self.dim,)) or not np.all(np.isfinite(c)):
+                raise ValueError(f"center must be finite with shape (2,) or ({self.dim},)")
+            c = c[:2]
+        diff = self._particles[:, :2] - c
+        inside = np.einsum("ij,ij->i", diff, diff) <= float(radius) ** 2
+        return float(min(1.0, self._weights[inside].sum()))
+
+    def _cell_index(self, dims: tuple[int, ...], bins: tuple[int, ...]) -> np.ndarray:
+        """Flat index of each particle's cell on a grid with ``bins`` cells over ``dims``."""
+        space = self._space
+        low = space.low_array[list(dims)]
+        width = space.high_array[list(dims)] - low
+        b = np.asarray(bins)
+        cell = np.floor((self._particles[:, list(dims)] - low) * (b / width)).astype(np.int64)
+        np.clip(cell, 0, b - 1, out=cell)
+        strides = np.cumprod(np.concatenate([b[1:], [1]])[::-1])[::-1]
+        return cell @ strides
+
+    def entropy(self) -> float:
+        """Histogram estimate of the differential entropy (eq. 6) on the fixed grid.
+
+        ``H = -sum_c P_c log(P_c / V_c)`` over the ``prod(entropy_bins)`` equal cells of the
+        domain (see the module docstring). A uniform belief gives ``log(vol(Theta))``.
+
+        Returns:
+            Entropy in nats (between ``log(V_c)`` and ``log(vol(Theta))``).
+        """
+        bins = self._entropy_bins
+        flat = self._cell_index(tuple(range(self.dim)), bins)
+        mass = np.bincount(flat, weights=self._weights, minlength=int(np.prod(bins)))
+        mass = mass[mass > 0]
+        mass = mass / mass.sum()
+        log_cell_volume = math.log(self._space.volume) - math.log(float(np.prod(bins)))
+        return float(-np.dot(mass, np.log(mass)) + log_cell_volume)
+
+    def mass_grid(self, shape: tuple[int, int] = (8, 8)) -> FloatArray:
+        """Posterior position mass on a coarse ``gx x gy`` grid over the position box.
+
+        Args:
+            shape: ``(gx, gy)`` cells along x and y.
+
+        Returns:
+            ``(gx, gy)`` masses summing to one; ``[i, j]`` is the cell ``i``-th along x and
+            ``j``-th along y.
+        """
+        try:
+            gx, gy = shape
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"shape must be a pair of positive integers, got {shape!r}") from err
+        for g in (gx, gy):
+            if isinstance(g, bool) or not isinstance(g, int | np.integer) or g < 1:
+                raise ValueError(f"shape must be a pair of positive integers, got {shape!r}")
+        flat = self._cell_index((0, 1), (int(gx), int(gy)))
+        mass = np.bincount(flat, weights=self._weights, minlength=int(gx) * int(gy))
+        return (mass / mass.sum()).reshape(int(gx), int(gy))
+
+    def __repr__(self) -> str:
+        return (
+            f"ParticleBelief(n_particles={self.n_particles}, dim={self.dim}, "
+            f"ess={self.ess:.1f}, motion={self._motion!r})"
+        )
