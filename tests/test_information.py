@@ -1,0 +1,307 @@
+"""Tests of infoseek.planners.information: MI of particle beliefs (eq. 9, 13-19)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.special import logsumexp
+
+from infoseek.envs.sensors import BearingSensor, RangeSensor
+from infoseek.envs.sensors.beacon import BeaconSensor
+from infoseek.planners.information import (
+    MIEstimate,
+    mutual_information,
+    mutual_information_batch,
+    noise_std,
+    pairwise_mutual_information,
+    select_method,
+    uniform_bin_edges,
+)
+
+
+def _belief(rng: np.random.Generator, n: int, target_dim: int) -> tuple[np.ndarray, np.ndarray]:
+    """A non-uniform particle set: two blobs in the 40 x 40 square, random weights."""
+    centres = np.array([[14.0, 22.0], [27.0, 15.0]])
+    blob = rng.integers(0, 2, n)
+    xy = centres[blob] + rng.normal(0.0, [2.5, 4.0], (n, 2))
+    xy = np.clip(xy, 0.5, 39.5)
+    if target_dim == 3:
+        xy = np.column_stack([xy, rng.uniform(0.0, 2.0 * np.pi, n)])
+    weights = rng.gamma(0.7, size=n)
+    return xy, weights / weights.sum()
+
+
+def _brute_force(sensor, poses, particles, weights, rng, n_samples=6000, edges=None):
+    """Independent MC estimate of I: mean of log p(z|theta) - log p(z), and its std error.
+
+    With ``edges`` the observation is the bin index of z (probabilities from bin_probabilities).
+    """
+    index = rng.choice(particles.shape[0], size=n_samples, p=weights)
+    terms = np.zeros(n_samples)
+    log_mixture_terms = np.zeros((n_samples, particles.shape[0]))
+    for pose in poses:
+        z = sensor.sample(pose, particles[index], rng)  # (S, obs_dim)
+        if edges is None:
+            log_lik = sensor.log_likelihood(z, pose, particles)  # (S, N)
+        else:
+            bins = np.clip(np.searchsorted(edges, z[:, 0], side="right") - 1, 0, len(edges) - 2)
+            probs = sensor.bin_probabilities(edges, pose, particles)  # (N, Q)
+            log_lik = np.log(np.maximum(probs[:, bins].T, 1e-300))
+        log_mixture_terms += log_lik
+    terms = log_mixture_terms[np.arange(n_samples), index] - logsumexp(
+        log_mixture_terms + np.log(weights), axis=1
+    )
+    return terms.mean(), terms.std(ddof=1) / math.sqrt(n_samples)
+
+
+def _beacon_belief(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """A non-uniform beacon belief 5-15 units from BEACON_POSES (moderate noise)."""
+    particles = np.column_stack(
+        [rng.normal([20.0, 20.0], [2.0, 3.0], (n, 2)), rng.uniform(0.0, 2.0 * np.pi, n)]
+    )
+    weights = rng.gamma(0.7, size=n)
+    return particles, weights / weights.sum()
+
+
+BEACON_POSES = np.array([[20.0, 29.0], [28.0, 20.0]])
+
+
+POSE_SETS = {
+    1: np.array([[3.0, 4.0]]),
+    2: np.array([[3.0, 4.0], [36.0, 30.0]]),
+}
+
+
+@pytest.mark.parametrize("k", [1, 2])
+@pytest.mark.parametrize(
+    "sensor", [BearingSensor(0.1), RangeSensor(0.5, 60.0)], ids=["bearing", "range"]
+)
+def test_default_path_matches_brute_force(sensor, k):
+    rng = np.random.default_rng(10 + k)
+    particles, weights = _belief(rng, 400, 2)
+    poses = POSE_SETS[k]
+    value = mutual_information(sensor, poses, particles, weights)
+    assert value.method == "fft"
+    mean, stderr = _brute_force(sensor, poses, particles, weights, rng)
+    assert abs(value - mean) < 3 * stderr + 0.01, (value, mean, stderr)
+
+
+@pytest.mark.parametrize("k", [1, 2])
+def test_beacon_quantised_matches_brute_force_of_bins(k):
+    sensor = BeaconSensor()
+    rng = np.random.default_rng(20 + k)
+    particles, weights = _belief(rng, 400, 3)
+    # Near (about 8 units) and far poses: sharp and broad likelihoods mixed.
+    poses = np.array([[12.0, 14.0], [30.0, 30.0]])[:k]
+    edges = uniform_bin_edges(sensor.domain, 48)
+    value = mutual_information(sensor, poses, particles, weights, edges=edges)
+    assert value.method == "quantised"
+    mean, stderr = _brute_force(sensor, poses, particles, weights, rng, edges=edges)
+    assert abs(value - mean) < 3 * stderr + 0.01, (value, mean, stderr)
+
+
+@pytest.mark.parametrize("k", [1, 2])
+def test_beacon_general_path_matches_continuous_brute_force(k):
+    """Moderate noise (the beacon 5-15 units away): the quadrature resolves the likelihoods."""
+    sensor = BeaconSensor()
+    rng = np.random.default_rng(30 + k)
+    particles, weights = _beacon_belief(rng, 300)
+    poses = BEACON_POSES[:k]
+    fine = 1024 if k == 1 else 256
+    value = mutual_information(
+        sensor, poses, particles, weights, method="quadrature", n_points=fine
+    )
+    assert value > 0.3  # informative enough for the comparison to mean something
+    mean, stderr = _brute_force(sensor, poses, particles, weights, rng)
+    assert abs(value - mean) < 3 * stderr + 0.01, (value, mean, stderr)
+
+
+@pytest.mark.parametrize("k", [1, 2])
+@pytest.mark.parametrize(
+    "sensor", [BearingSensor(0.1), RangeSensor(0.5, 60.0)], ids=["bearing", "range"]
+)
+def test_fast_path_equals_general_path(sensor, k):
+    rng = np.random.default_rng(40 + k)
+    particles, weights = _belief(rng, 300, 2)
+    for poses in (POSE_SETS[k], rng.uniform(0.0, 40.0, (k, 2))):
+        fast = mutual_information(sensor, poses, particles, weights, method="fft")
+        general = mutual_information(
+            sensor, poses, particles, weights, method="quadrature", n_points=1024 if k == 1 else 320
+        )
+        assert fast.method == "fft" and general.method == "quadrature"
+        assert abs(fast - general) < 1e-3, (fast, general)
+        assert abs(fast.conditional_entropy - general.conditional_entropy) < 1e-3
+
+
+def test_fast_path_on_a_concentrated_belief():
+    """A posterior narrower than one grid cell still agrees (moment-preserving assignment)."""
+    sensor = BearingSensor(0.1)
+    rng = np.random.default_rng(5)
+    particles = rng.normal([20.0, 20.0], 0.05, (200, 2))
+    weights = rng.random(200)
+    poses = np.array([[3.0, 4.0], [3.5, 4.2]])
+    fast = mutual_information(sensor, poses, particles, weights, method="fft")
+    general = mutual_information(
+        sensor, poses, particles, weights, method="quadrature", n_points=384
+    )
+    assert abs(fast - general) < 1e-3
+
+
+@pytest.mark.parametrize(
+    ("sensor", "target_dim"),
+    [(BearingSensor(0.1), 2), (RangeSensor(0.5, 60.0), 2), (BeaconSensor(), 3)],
+    ids=["bearing", "range", "beacon"],
+)
+def test_bounds_and_redundancy(sensor, target_dim):
+    rng = np.random.default_rng(50)
+    particles, weights = _belief(rng, 300, target_dim)
+    pose = np.array([[9.0, 9.0]])
+    single = mutual_information(sensor, pose, particles, weights)
+    twice = mutual_information(sensor, np.vstack([pose, pose]), particles, weights)
+    for value, k in ((single, 1), (twice, 2)):
+        assert value >= -1e-9
+        assert value == pytest.approx(value.entropy - value.conditional_entropy, abs=1e-9)
+        if value.method == "quantised":  # discrete entropies of the bin index: I <= H <= log Q^k
+            assert value <= value.entropy + 1e-12
+            assert value.entropy <= k * math.log(256 if k == 1 else 96) + 1e-9
+        else:  # differential entropies: H(z) <= log |Z|^k, H(z | theta) = k H(noise)
+            assert value.entropy <= k * math.log(sensor.domain.size) + 1e-9
+            assert value.conditional_entropy == pytest.approx(
+                k * (0.5 * math.log(2 * math.pi * math.e) + math.log(noise_std(sensor))), abs=1e-3
+            )
+    # The same observation twice is redundant but not useless.
+    assert single < twice < 2 * single
+
+
+def test_mi_is_zero_for_uninformative_sensor_and_positive_otherwise():
+    sensor = BearingSensor(0.1)
+    rng = np.random.default_rng(6)
+    # All particles on a ray from the sensor: identical bearings, nothing to learn.
+    t = rng.uniform(5.0, 30.0, 200)
+    particles = np.column_stack([2.0 + t, 2.0 + t])
+    weights = np.full(200, 1 / 200)
+    for method in ("fft", "quadrature"):
+        assert (
+            abs(mutual_information(sensor, [[2.0, 2.0]], particles, weights, method=method)) < 1e-3
+        )
+        assert mutual_information(sensor, [[30.0, 2.0]], particles, weights, method=method) > 0.5
+
+
+def test_quantised_is_monotone_under_nested_refinement_and_tends_to_continuous():
+    sensor = BeaconSensor()
+    rng = np.random.default_rng(7)
+    particles, weights = _beacon_belief(rng, 300)
+    for k in (1, 2):
+        poses = BEACON_POSES[:k]
+        continuous = mutual_information(
+            sensor, poses, particles, weights, method="quadrature", n_points=1024 if k == 1 else 256
+        )
+        values = [
+            mutual_information(sensor, poses, particles, weights, n_points=q)
+            for q in (4, 8, 16, 32, 64, 128, 256)
+        ]
+        assert all(v.method == "quantised" for v in values)
+        assert all(b >= a - 1e-12 for a, b in zip(values, values[1:], strict=False)), values
+        assert values[-1] <= continuous + 1e-6  # data processing inequality
+        assert continuous - values[-1] < 0.005
+        assert values[0] < continuous - 0.1  # coarse bins lose information (the test can fail)
+
+
+def test_batch_and_pairwise_agree_with_single_calls():
+    sensor = BearingSensor(0.1)
+    rng = np.random.default_rng(8)
+    particles, weights = _belief(rng, 250, 2)
+    poses_a = rng.uniform(0.0, 40.0, (4, 2))
+    poses_b = rng.uniform(0.0, 40.0, (3, 2))
+    for method in ("fft", "quadrature"):
+        singles = mutual_information_batch(
+            sensor, poses_a[:, None, :], particles, weights, method=method
+        )
+        pairs = pairwise_mutual_information(
+            sensor, poses_a, poses_b, particles, weights, method=method
+        )
+        assert singles.shape == (4,) and pairs.shape == (4, 3)
+        for a in range(4):
+            assert singles[a] == pytest.approx(
+                mutual_information(sensor, poses_a[a : a + 1], particles, weights, method=method),
+                abs=1e-9,
+            )
+            for b in range(3):
+                pair = np.stack([poses_a[a], poses_b[b]])
+                assert pairs[a, b] == pytest.approx(
+                    mutual_information(sensor, pair, particles, weights, method=method), abs=1e-6
+                )
+    quantised_pairs = pairwise_mutual_information(
+        BeaconSensor(), poses_a, poses_b, *_belief(rng, 100, 3), n_points=32
+    )
+    assert quantised_pairs.shape == (4, 3) and np.all(quantised_pairs >= -1e-12)
+
+
+def test_monte_carlo_estimator_k3_and_k4():
+    sensor = BearingSensor(0.3)
+    rng = np.random.default_rng(9)
+    particles, weights = _belief(rng, 200, 2)
+    poses = np.array([[2.0, 2.0], [38.0, 3.0], [20.0, 38.0], [2.0, 30.0]])
+    grid = mutual_information(
+        sensor, poses[:3], particles, weights, method="quadrature", n_points=48
+    )
+    mc = mutual_information(
+        sensor, poses[:3], particles, weights, method="monte_carlo", rng=rng, n_samples=8000
+    )
+    assert mc.method == "monte_carlo" and mc.stderr > 0
+    assert abs(mc - grid) < 4 * mc.stderr + 0.005
+    value, stderr = mutual_information(
+        sensor, poses, particles, weights, rng=np.random.default_rng(1)
+    ).as_tuple()
+    assert select_method(sensor, 4) == "monte_carlo" and stderr > 0
+    assert grid - 1e-3 < value  # a fourth observation cannot lose information (within MC error)
+    again = mutual_information(sensor, poses, particles, weights, rng=np.random.default_rng(1))
+    assert float(again) == value  # reproducible with the same seed
+    values, stderrs = mutual_information_batch(
+        sensor, poses[None], particles, weights, rng=np.random.default_rng(1), return_stderr=True
+    )
+    assert values[0] == value and stderrs[0] == stderr
+
+
+def test_method_selection_and_forcing():
+    assert select_method(BearingSensor(), 1) == "fft"
+    assert select_method(RangeSensor(), 2) == "fft"
+    assert select_method(BeaconSensor(), 2) == "quantised"
+    assert select_method(BearingSensor(), 4) == "monte_carlo"
+    rng = np.random.default_rng(11)
+    particles, weights = _belief(rng, 50, 3)
+    assert mutual_information(
+        BeaconSensor(), [[1.0, 1.0]], particles, weights, method="quadrature"
+    ).method == ("quadrature")
+    with pytest.raises(TypeError, match="fft"):
+        mutual_information(BeaconSensor(), [[1.0, 1.0]], particles, weights, method="fft")
+    with pytest.raises(ValueError, match="rng"):
+        mutual_information(BeaconSensor(), [[1.0, 1.0]], particles, weights, method="monte_carlo")
+    with pytest.raises(ValueError, match="method"):
+        mutual_information(BeaconSensor(), [[1.0, 1.0]], particles, weights, method="magic")
+
+
+def test_input_validation():
+    sensor = BearingSensor()
+    particles = np.zeros((5, 2))
+    weights = np.full(5, 0.2)
+    with pytest.raises(ValueError, match="poses"):
+        mutual_information(sensor, np.zeros(2), particles, weights)
+    with pytest.raises(ValueError, match="weights"):
+        mutual_information(sensor, [[1.0, 1.0]], particles, np.full(4, 0.25))
+    with pytest.raises(ValueError, match="weights"):
+        mutual_information(sensor, [[1.0, 1.0]], particles, -weights)
+    with pytest.raises(ValueError, match="particles"):
+        mutual_information(sensor, [[1.0, 1.0]], np.full((5, 2), np.nan), weights)
+    with pytest.raises(ValueError, match="poses"):
+        mutual_information_batch(sensor, np.zeros((3, 2)), particles, weights)
+
+
+def test_mi_estimate_is_a_float_and_noise_scale():
+    estimate = MIEstimate(0.5, 0.01, "monte_carlo")
+    assert isinstance(estimate, float) and estimate + 1 == 1.5
+    assert estimate.as_tuple() == (0.5, 0.01)
+    assert noise_std(BearingSensor(0.1)) == pytest.approx(0.1, rel=1e-3)
+    assert noise_std(RangeSensor(0.5)) == pytest.approx(0.5, rel=1e-3)
