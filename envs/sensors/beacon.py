@@ -104,8 +104,7 @@ import math
 import numpy as np
 from scipy.special import erf, erfc, owens_t
 
-from infoseek.envs.sensors.base import FloatArray, ObservationDomain
-from infoseek.envs.sensors.bearing import (
+from infoseek.envs.sensors.arrays import (
     LOG_SQRT_2PI,
     as_edges,
     as_particles,
@@ -115,6 +114,7 @@ from infoseek.envs.sensors.bearing import (
     check_rng,
     wrap_into,
 )
+from infoseek.envs.sensors.base import FloatArray, ObservationDomain
 
 __all__ = ["MIN_DISTANCE", "BeaconSensor"]
 

@@ -55,140 +55,35 @@ differences of the normal CDF taken on the accurate side of zero), or, for ``sig
 :math:`(b - a)/(2\pi) + \frac1\pi\sum_n e^{-n^2\sigma^2/2}
 (\sin n(b - \mu) - \sin n(a - \mu))/n`.
 
-This module also holds the small validation helpers shared by the other sensor modules.
 """
 
 from __future__ import annotations
 
 import math
-from numbers import Real
 
 import numpy as np
-from scipy.special import ndtr
 
+from infoseek.envs.sensors.arrays import (
+    LOG_SQRT_2PI,
+    TWO_PI,
+    as_edges,
+    as_particles,
+    as_points,
+    check_broadcast,
+    check_positive,
+    check_rng,
+    float_dtype,
+    normal_bin_masses,
+    wrap_into,
+)
 from infoseek.envs.sensors.base import FloatArray, ObservationDomain
 
 __all__ = ["BearingSensor"]
 
-TWO_PI = 2.0 * math.pi
-LOG_SQRT_2PI = 0.5 * math.log(TWO_PI)
 # Relative size below which an omitted image/Fourier term is negligible (e^-42 ~ 5.7e-19).
 _NEGLIGIBLE_EXPONENT = 42.0
 # Above this noise level the theta series needs fewer terms than the image sum.
 _FOURIER_SIGMA = 2.0
-
-
-# ---------------------------------------------------------------------------------------------
-# Validation helpers shared by the sensor modules (not part of the public API).
-# ---------------------------------------------------------------------------------------------
-
-
-def check_positive(value: object, name: str, owner: str) -> float:
-    """Return ``value`` as a float, raising unless it is a finite real number ``> 0``."""
-    if isinstance(value, bool) or not isinstance(value, Real):
-        raise TypeError(f"{owner}: {name} must be a real number, got {type(value).__name__}")
-    result = float(value)
-    if not (math.isfinite(result) and result > 0.0):
-        raise ValueError(f"{owner}: {name} must be finite and > 0, got {value!r}")
-    return result
-
-
-def as_points(array: object, name: str, last_dim: int, owner: str) -> FloatArray:
-    """Convert to a finite float64 array of shape ``(..., last_dim)``."""
-    try:
-        result = np.asarray(array, dtype=np.float64)
-    except (TypeError, ValueError) as error:
-        raise TypeError(f"{owner}: {name} must be a float array, got {type(array).__name__}") from (
-            error
-        )
-    if result.ndim < 1 or result.shape[-1] != last_dim:
-        raise ValueError(f"{owner}: {name} must have shape (..., {last_dim}), got {result.shape}")
-    if not np.isfinite(result).all():
-        raise ValueError(f"{owner}: {name} must be finite (got NaN or inf)")
-    return result
-
-
-def as_particles(
-    particles: object, name: str, dim: int, owner: str, *, allow_wider: bool = False
-) -> FloatArray:
-    """Convert to a finite float64 array of shape ``(N, dim)`` (``(N, >= dim)`` if allowed)."""
-    try:
-        result = np.asarray(particles, dtype=np.float64)
-    except (TypeError, ValueError) as error:
-        raise TypeError(
-            f"{owner}: {name} must be a float array, got {type(particles).__name__}"
-        ) from error
-    width_ok = result.ndim == 2 and (
-        result.shape[1] >= dim if allow_wider else result.shape[1] == dim
-    )
-    if not width_ok:
-        expected = f"(N, >= {dim})" if allow_wider else f"(N, {dim})"
-        raise ValueError(f"{owner}: {name} must have shape {expected}, got {result.shape}")
-    if not np.isfinite(result).all():
-        raise ValueError(f"{owner}: {name} must be finite (got NaN or inf)")
-    return result
-
-
-def check_rng(rng: object, owner: str) -> np.random.Generator:
-    """Raise TypeError unless ``rng`` is a :class:`numpy.random.Generator`."""
-    if not isinstance(rng, np.random.Generator):
-        raise TypeError(f"{owner}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
-    return rng
-
-
-def as_edges(edges: object, domain: ObservationDomain, owner: str) -> FloatArray:
-    """Validate bin edges: ``(Q+1,)``, finite, strictly increasing, ``Q >= 1``.
-
-    For a periodic domain the edges must also lie in ``[low, high]`` (so that every bin is an
-    ordinary sub-interval of one period).
-    """
-    result = np.asarray(edges, dtype=np.float64)
-    if result.ndim != 1 or result.shape[0] < 2:
-        raise ValueError(f"{owner}: edges must have shape (Q+1,) with Q >= 1, got {result.shape}")
-    if not np.isfinite(result).all():
-        raise ValueError(f"{owner}: edges must be finite")
-    if not (np.diff(result) > 0.0).all():
-        raise ValueError(f"{owner}: edges must be strictly increasing")
-    if domain.periodic[0]:
-        low, high = domain.low[0], domain.high[0]
-        tol = 1e-9 * (high - low)
-        if result[0] < low - tol or result[-1] > high + tol:
-            raise ValueError(
-                f"{owner}: edges must lie within the observation domain [{low}, {high}], got "
-                f"[{result[0]}, {result[-1]}]"
-            )
-    return result
-
-
-def wrap_into(x: FloatArray, low: float, period: float) -> FloatArray:
-    """Wrap ``x`` into ``[low, low + period)`` (guarding the float rounding to ``low + period``)."""
-    shifted = np.subtract(x, low)
-    wrapped = shifted - period * np.floor(shifted * (1.0 / period))
-    # Rounding can leave the result a hair outside [0, period); fold it back.
-    wrapped[wrapped >= period] -= period
-    wrapped[wrapped < 0.0] += period
-    wrapped += low
-    return wrapped
-
-
-def normal_bin_masses(x: FloatArray) -> FloatArray:
-    """Standard normal mass of the bins between consecutive points along the last axis.
-
-    Args:
-        x: ``(..., Q+1)`` standardised bin edges, increasing along the last axis.
-
-    Returns:
-        ``(..., Q)`` values ``Phi(x[q+1]) - Phi(x[q])``, differenced on the accurate side of zero
-        (upper-tail probabilities when the bin lies above the mean), so tiny tail masses keep
-        their relative accuracy.
-    """
-    cdf = ndtr(x)
-    sf = ndtr(-x)
-    upper = x[..., :-1] > 0.0
-    return np.where(upper, sf[..., :-1] - sf[..., 1:], cdf[..., 1:] - cdf[..., :-1])
-
-
-# ---------------------------------------------------------------------------------------------
 
 
 class BearingSensor:
@@ -264,11 +159,13 @@ class BearingSensor:
             particles: ``(N, >= 2)`` target hypotheses (first two coordinates used).
 
         Returns:
-            ``(..., N, 1)`` bearings in ``[-pi, pi)``.
+            ``(..., N, 1)`` bearings in ``[-pi, pi)``; float32 when both inputs are float32
+            arrays (the planners' fast path), float64 otherwise.
         """
-        poses = as_points(poses, "poses", 2, "BearingSensor.predict")
+        dtype = float_dtype(poses, particles)
+        poses = as_points(poses, "poses", 2, "BearingSensor.predict", dtype)
         particles = as_particles(
-            particles, "particles", 2, "BearingSensor.predict", allow_wider=True
+            particles, "particles", 2, "BearingSensor.predict", allow_wider=True, dtype=dtype
         )
         return self._bearing(poses, particles)[..., None]
 
@@ -401,13 +298,3 @@ class BearingSensor:
         x = (d[..., None, :] + self._cdf_shifts[:, None]) * (1.0 / self.sigma)  # (..., N, K, Q+1)
         probs = normal_bin_masses(x).sum(axis=-2)
         return np.clip(probs, 0.0, 1.0)
-
-
-def check_broadcast(z: FloatArray, poses: FloatArray, owner: str) -> None:
-    """Raise ValueError naming both arguments unless the batch shapes broadcast."""
-    try:
-        np.broadcast_shapes(z.shape[:-1], poses.shape[:-1])
-    except ValueError as error:
-        raise ValueError(
-            f"{owner}: batch shapes of z {z.shape} and poses {poses.shape} do not broadcast"
-        ) from error

@@ -36,8 +36,7 @@ import math
 
 import numpy as np
 
-from infoseek.envs.sensors.base import FloatArray, ObservationDomain
-from infoseek.envs.sensors.bearing import (
+from infoseek.envs.sensors.arrays import (
     LOG_SQRT_2PI,
     as_edges,
     as_particles,
@@ -45,8 +44,10 @@ from infoseek.envs.sensors.bearing import (
     check_broadcast,
     check_positive,
     check_rng,
+    float_dtype,
     normal_bin_masses,
 )
+from infoseek.envs.sensors.base import FloatArray, ObservationDomain
 
 __all__ = ["RangeSensor"]
 
@@ -105,11 +106,12 @@ class RangeSensor:
             particles: ``(N, >= 2)`` target hypotheses.
 
         Returns:
-            ``(..., N, 1)`` distances.
+            ``(..., N, 1)`` distances; float32 when both inputs are float32 arrays.
         """
         owner = "RangeSensor.predict"
-        poses = as_points(poses, "poses", 2, owner)
-        particles = as_particles(particles, "particles", 2, owner, allow_wider=True)
+        dtype = float_dtype(poses, particles)
+        poses = as_points(poses, "poses", 2, owner, dtype)
+        particles = as_particles(particles, "particles", 2, owner, allow_wider=True, dtype=dtype)
         return self._range(poses, particles)[..., None]
 
     def noise_log_density(self, residual: FloatArray) -> FloatArray:

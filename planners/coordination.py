@@ -1,0 +1,568 @@
+r"""Decentralised penalty coordination of the vehicles' local programs (section III.D).
+
+Every vehicle :math:`i` chooses its control :math:`u^{(i)}_t` from a finite candidate set
+(a grid over its control domain, or the environment's discrete control table); candidate
+:math:`c` moves it to the predicted position :math:`x^{(i)}_{t+1}(c)`. The vehicles must keep
+the separation of eq. 2, rewritten as the interconnecting constraints of eq. 28,
+
+.. math::
+
+    g^{(i,m)} = \bar d - \| x^{(i)}_{t+1} - x^{(m)}_{t+1} \| \le 0, \qquad m \ne i,
+
+which are handled with the inexact penalty of eq. 27 (zero where the constraints hold,
+differentiable for :math:`\gamma \ge 2`),
+
+.. math::
+
+    P^{(i)} = \sum_{m \ne i} \max(0, g^{(i,m)})^{\gamma}.
+
+**Local program (eq. 29).** Holding the latest exchanged plans of the other vehicles fixed,
+vehicle :math:`i` maximises
+
+.. math::
+
+    J^{(i)}_k(c) = V^{(i)}(c \mid \text{plans}) - \frac{1}{\beta_k}\Big( P^{(i)}(c)
+        + w_a \, \| x^{(i)}_{t+1}(c) - x^{(i)}_{t+1}(c^{(i)}_{k-1}) \|^2 \Big)
+
+over its candidates, then the plans are exchanged and :math:`\beta_{k+1} = \alpha \beta_k`
+(:math:`0 < \alpha < 1`), so the constraints weigh more and more until the plans are
+:math:`\epsilon`-feasible. Iteration stops when no plan moved by more than ``tolerance``
+(Euclidean norm in control units) **and** the worst constraint violation
+:math:`\max_{i,m} g^{(i,m)}` is at most ``feasibility_tolerance``, or after
+``max_iterations`` local solves per vehicle. Requiring feasibility as well as a fixed point
+matters: with a large :math:`\beta` a small violation may not yet be worth fixing, and
+stopping there would return an infeasible plan that the next iterations would repair.
+
+**Slack copies and agreement (eq. 30).** For the pairwise-node utility (eq. 22) the other
+vehicles' controls enter vehicle :math:`i`'s cost. Following the paper, vehicle :math:`i`
+holds a copy :math:`\tilde u^{(i)}` of *all* controls, and the agreement constraints
+:math:`\tilde u^{(i)} = \tilde u^{(j)}` are penalised with the same :math:`1/\beta_k` weight.
+This module realises that program by block-coordinate descent: vehicle :math:`i` optimises
+its own block :math:`\tilde u^{(i)}_i` and sets every other block :math:`\tilde u^{(i)}_j` to
+the latest plan exchanged by vehicle :math:`j`, which is the minimiser of the agreement
+penalty in that block. Its own block is penalised against the copies the others hold of it
+(its previous plan): the term :math:`w_a \|x^{(i)}_{t+1}(c) - x^{(i)}_{t+1}(c^{(i)}_{k-1})\|^2`
+above, measured through the dynamics in position units (the same units as the separation
+penalty), with weight ``agreement_weight`` :math:`w_a` relative to :math:`1/\beta_k`. The
+pairwise utility of a candidate is then evaluated against the partner plans held in the copy.
+:class:`CoordinationResult.copies` returns every vehicle's final copy; at convergence all the
+copies agree with the final plans (``agreement_residual == 0``).
+
+The agreement term vanishes at a fixed point, so converged plans solve eq. 29 exactly. It is
+applied in the synchronous schedule only, together with *reciprocal anticipation* (each vehicle
+assumes a partner mirrors its own displacement; again exact at a fixed point). Without them,
+two vehicles drawn to the same spot step away from each other simultaneously, then both step
+back, forever (a 2-cycle whose amplitude does not decay as :math:`\beta \to 0`). Even so,
+Jacobi can still cycle when three or more vehicles crowd one spot; Gauss-Seidel is the default
+because it converged on every synthetic problem tried. A plan frozen by the grid can keep a
+residual shortfall of about one candidate spacing; planners add a separation margin.
+
+**Schedules.** ``"jacobi"`` (synchronous): all vehicles solve against the plans of the previous
+exchange, then all plans are exchanged at once. ``"gauss-seidel"`` (sequential, default):
+vehicles solve in index order, each against the newest plans, including those already updated
+in the current sweep. One iteration is one sweep over all vehicles in both schedules.
+
+**Horizon.** Candidate positions may be given as ``(C, H, 2)`` tracks (the control held for
+``H`` steps); the constraints of eq. 28 are then imposed at every step of the horizon
+(:func:`horizon_separation_penalty`). ``H = 1`` is the paper's program.
+
+**Continuous refinement.** :func:`refine_control` polishes one vehicle's grid choice with a
+bounded local scipy search (``minimize_scalar`` for one control, bounded ``Powell`` for
+several) inside the grid cell around the best grid point; it never leaves the control bounds
+and never returns a control worse than its starting point.
+
+Everything here is a pure function of arrays and callables: the planners supply the utilities.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import optimize
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+#: ``utility(i, plans) -> (C_i,)``: vehicle ``i``'s utility of each of its candidates, given the
+#: plan (candidate index) of every vehicle held in ``i``'s copy; ``plans[i]`` is ``i``'s own
+#: previous plan and must be ignored by the utility.
+UtilityFunction = Callable[[int, IntArray], FloatArray]
+
+SCHEDULES: tuple[str, ...] = ("jacobi", "gauss-seidel")
+
+
+def separation_penalty(
+    positions: FloatArray,
+    other_positions: FloatArray,
+    min_separation: float,
+    gamma: float = 2.0,
+) -> FloatArray:
+    r"""Inexact penalty of eq. 27 on the collision constraints of eq. 28.
+
+    .. math:: P = \sum_m \max(0, \bar d - \|p - q_m\|)^\gamma
+
+    Args:
+        positions: ``(..., 2)`` candidate next positions of one vehicle.
+        other_positions: ``(M, 2)`` planned next positions of the other vehicles (``M`` may be 0).
+        min_separation: The separation :math:`\bar d \ge 0`.
+        gamma: Penalty exponent :math:`\gamma \ge 2` (differentiable penalty).
+
+    Returns:
+        ``(...)`` penalty of each candidate (0 where every constraint holds).
+    """
+    positions = np.asarray(positions, dtype=np.float64)
+    other_positions = np.asarray(other_positions, dtype=np.float64)
+    if positions.shape[-1] != 2 or other_positions.shape[-1] != 2:
+        raise ValueError(
+            f"positions and other_positions must end in 2, got {positions.shape}, "
+            f"{other_positions.shape}"
+        )
+    if other_positions.ndim == 1:
+        other_positions = other_positions[None, :]
+    if other_positions.shape[-2] == 0:
+        return np.zeros(positions.shape[:-1])
+    gaps = np.linalg.norm(positions[..., None, :] - other_positions, axis=-1)  # (..., M)
+    violation = np.maximum(0.0, min_separation - gaps)
+    return np.sum(violation**gamma, axis=-1)
+
+
+def horizon_separation_penalty(
+    positions: FloatArray,
+    other_positions: FloatArray,
+    min_separation: float,
+    gamma: float = 2.0,
+) -> FloatArray:
+    """Eq. 27 summed over a short prediction horizon.
+
+    Args:
+        positions: ``(..., H, 2)`` predicted positions of one vehicle's candidates at steps
+            ``t+1 ... t+H``.
+        other_positions: ``(M, H, 2)`` (or ``(..., M, H, 2)``) the other vehicles' planned
+            positions at the same steps.
+        min_separation: The separation.
+        gamma: Penalty exponent.
+
+    Returns:
+        ``(...)`` ``sum_h sum_m max(0, d - ||p_h - q_{m,h}||)^gamma``; with ``H = 1`` this is
+        :func:`separation_penalty`.
+    """
+    positions = np.asarray(positions, dtype=np.float64)
+    other_positions = np.asarray(other_positions, dtype=np.float64)
+    if other_positions.shape[-3] == 0:
+        return np.zeros(positions.shape[:-2])
+    gaps = np.linalg.norm(positions[..., None, :, :] - other_positions, axis=-1)  # (..., M, H)
+    return np.sum(np.maximum(0.0, min_separation - gaps) ** gamma, axis=(-2, -1))
+
+
+def separation_constraints(positions: FloatArray, min_separation: float) -> FloatArray:
+    r"""Constraint values :math:`g^{(i,m)} = \bar d - \|x^{(i)} - x^{(m)}\|` of eq. 28.
+
+    Args:
+        positions: ``(A, 2)`` planned positions.
+        min_separation: The separation :math:`\bar d`.
+
+    Returns:
+        ``(A, A)`` constraint values; the diagonal (no self-constraint) is ``-inf``.
+    """
+    positions = np.asarray(positions, dtype=np.float64)
+    gaps = np.linalg.norm(positions[:, None, :] - positions[None, :, :], axis=-1)
+    g = min_separation - gaps
+    np.fill_diagonal(g, -np.inf)
+    return g
+
+
+def max_violation(positions: FloatArray, min_separation: float) -> float:
+    """Worst constraint violation ``max(0, max_{i != m} g^{(i,m)})`` (0 when feasible)."""
+    positions = np.asarray(positions, dtype=np.float64)
+    if positions.shape[0] < 2:
+        return 0.0
+    return float(max(0.0, np.max(separation_constraints(positions, min_separation))))
+
+
+@dataclass(frozen=True)
+class PenaltySettings:
+    """Parameters of the decentralised penalty method.
+
+    Attributes:
+        min_separation: Planning separation :math:`\\bar d` of eq. 28 (>= 0).
+        alpha: Penalty parameter update :math:`\\beta := \\alpha\\beta`, in (0, 1).
+        beta: Initial penalty parameter :math:`\\beta_1 > 0` (the penalty weight is 1/beta).
+        gamma: Penalty exponent of eq. 27, >= 2.
+        max_iterations: Maximum number of sweeps (local solves per vehicle), >= 1.
+        tolerance: Plans whose controls moved by at most this (Euclidean norm, control units)
+            count as unchanged.
+        feasibility_tolerance: Largest constraint value ``g`` (distance units) accepted at
+            convergence.
+        schedule: ``"jacobi"`` (synchronous) or ``"gauss-seidel"`` (sequential).
+        agreement_weight: Weight ``w_a >= 0`` (relative to 1/beta) of the agreement penalty between
+            a vehicle's own block and the copies the others hold of it (eq. 30; see module doc).
+    """
+
+    min_separation: float
+    alpha: float = 0.5
+    beta: float = 1.0
+    gamma: float = 2.0
+    max_iterations: int = 20
+    tolerance: float = 1e-6
+    feasibility_tolerance: float = 1e-3
+    schedule: Literal["jacobi", "gauss-seidel"] = "gauss-seidel"
+    agreement_weight: float = 0.1
+    reciprocal: bool = True
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.min_separation) and self.min_separation >= 0):
+            raise ValueError(f"min_separation must be finite and >= 0, got {self.min_separation}")
+        if not 0.0 < self.alpha < 1.0:
+            raise ValueError(f"alpha must be in (0, 1), got {self.alpha}")
+        if not (np.isfinite(self.beta) and self.beta > 0):
+            raise ValueError(f"beta must be finite and > 0, got {self.beta}")
+        if not (np.isfinite(self.gamma) and self.gamma >= 2.0):
+            raise ValueError(f"gamma must be finite and >= 2, got {self.gamma}")
+        if int(self.max_iterations) != self.max_iterations or self.max_iterations < 1:
+            raise ValueError(f"max_iterations must be an integer >= 1, got {self.max_iterations}")
+        if not (np.isfinite(self.tolerance) and self.tolerance >= 0):
+            raise ValueError(f"tolerance must be finite and >= 0, got {self.tolerance}")
+        if not (np.isfinite(self.feasibility_tolerance) and self.feasibility_tolerance >= 0):
+            raise ValueError(
+                f"feasibility_tolerance must be finite and >= 0, got {self.feasibility_tolerance}"
+            )
+        if self.schedule not in SCHEDULES:
+            raise ValueError(f"schedule must be one of {SCHEDULES}, got {self.schedule!r}")
+        if not (np.isfinite(self.agreement_weight) and self.agreement_weight >= 0):
+            raise ValueError(
+                f"agreement_weight must be finite and >= 0, got {self.agreement_weight}"
+            )
+
+
+@dataclass(frozen=True)
+class CoordinationResult:
+    """Outcome of :func:`coordinate`.
+
+    Attributes:
+        indices: ``(A,)`` chosen candidate index of every vehicle.
+        controls: ``(A, control_dim)`` chosen controls.
+        positions: ``(A, 2)`` predicted next positions under the chosen controls.
+        utilities: ``(A,)`` utility of each final plan, evaluated against the final copy.
+        penalties: ``(A,)`` separation penalty ``P`` of each final plan against the final plans.
+        copies: ``(A, A)`` slack copies: ``copies[i, j]`` is the plan of vehicle ``j`` held by
+            vehicle ``i`` in its last local solve (``copies[i, i]`` is its own final plan).
+        agreement_residual: Largest control distance between a copy and the final plan of that
+            vehicle (0 when the copies agree, always the case after convergence).
+        iterations: Number of sweeps performed.
+        converged: Whether the stopping rule (no plan change and feasible) was met.
+        beta: Penalty parameter of the last sweep.
+        max_violation: Worst constraint value ``max(0, g)`` of the final plans.
+        changes: Largest plan change (control units) of every sweep.
+    """
+
+    indices: IntArray
+    controls: FloatArray
+    positions: FloatArray
+    utilities: FloatArray
+    penalties: FloatArray
+    copies: IntArray
+    agreement_residual: float
+    iterations: int
+    converged: bool
+    beta: float
+    max_violation: float
+    changes: tuple[float, ...] = field(default_factory=tuple)
+
+
+def _validate_candidates(
+    candidate_controls: Sequence[FloatArray], candidate_positions: Sequence[FloatArray]
+) -> tuple[list[FloatArray], list[FloatArray]]:
+    if len(candidate_controls) != len(candidate_positions):
+        raise ValueError(
+            "candidate_controls and candidate_positions need one entry per vehicle, got "
+            f"{len(candidate_controls)} and {len(candidate_positions)}"
+        )
+    if len(candidate_controls) == 0:
+        raise ValueError("candidate_controls: need at least one vehicle")
+    controls_out, positions_out = [], []
+    for i, (u, x) in enumerate(zip(candidate_controls, candidate_positions, strict=True)):
+        u = np.asarray(u, dtype=np.float64)
+        x = np.asarray(x, dtype=np.float64)
+        if u.ndim != 2 or u.shape[0] == 0:
+            raise ValueError(f"candidate_controls[{i}] must be (C, control_dim), got {u.shape}")
+        if x.ndim == 2:
+            x = x[:, None, :]
+        if x.ndim != 3 or x.shape[0] != u.shape[0] or x.shape[2] != 2:
+            raise ValueError(
+                f"candidate_positions[{i}] must have shape ({u.shape[0]}, 2) or "
+                f"({u.shape[0]}, H, 2), got {x.shape}"
+            )
+        if not (np.all(np.isfinite(u)) and np.all(np.isfinite(x))):
+            raise ValueError(f"vehicle {i}: candidate controls/positions must be finite")
+        controls_out.append(u)
+        positions_out.append(x)
+    return controls_out, positions_out
+
+
+def local_objective(
+    utilities: FloatArray,
+    positions: FloatArray,
+    other_positions: FloatArray,
+    previous_position: FloatArray | None,
+    beta: float,
+    settings: PenaltySettings,
+) -> FloatArray:
+    """The objective ``J`` of eq. 29 (to maximise) for a batch of candidates of one vehicle.
+
+    Args:
+        utilities: ``(C,)`` utility of each candidate.
+        positions: ``(C, 2)`` predicted next position of each candidate.
+        other_positions: ``(M, 2)`` latest plans' positions of the other vehicles.
+        previous_position: ``(2,)`` position of the vehicle's previous plan (the copy the others
+            hold of it), or None for no agreement term.
+        beta: Current penalty parameter.
+        settings: Penalty settings.
+
+    Returns:
+        ``(C,)`` utility minus (1/beta) times (separation penalty + agreement penalty).
+    """
+    positions = np.asarray(positions, dtype=np.float64)
+    other_positions = np.asarray(other_positions, dtype=np.float64)
+    if positions.ndim == 2:  # (C, 2): a one-step horizon
+        positions = positions[:, None, :]
+        other_positions = other_positions[..., None, :]
+        if previous_position is not None:
+            previous_position = np.asarray(previous_position)[None, :]
+    penalty = horizon_separation_penalty(
+        positions, other_positions, settings.min_separation, settings.gamma
+    )
+    if previous_position is not None and settings.agreement_weight > 0:
+        penalty = penalty + settings.agreement_weight * np.sum(
+            (positions[:, 0, :] - np.asarray(previous_position)[0]) ** 2, axis=-1
+        )
+    return np.asarray(utilities, dtype=np.float64) - penalty / beta
+
+
+def coordinate(
+    candidate_controls: Sequence[FloatArray],
+    candidate_positions: Sequence[FloatArray],
+    utility: UtilityFunction,
+    settings: PenaltySettings,
+    initial_indices: IntArray | Sequence[int] | None = None,
+) -> CoordinationResult:
+    """Run the decentralised penalty method over finite candidate sets.
+
+    Args:
+        candidate_controls: Per vehicle, ``(C_i, control_dim)`` candidate controls.
+        candidate_positions: Per vehicle, ``(C_i, 2)`` predicted next positions.
+        utility: ``utility(i, plans) -> (C_i,)`` (see :data:`UtilityFunction`). Called once per
+            local solve; cache inside it when the utility does not depend on the plans.
+        settings: Penalty method parameters.
+        initial_indices: ``(A,)`` initial plans (the first exchange). Default: every vehicle's
+            unpenalised argmax of ``utility(i, nominal)``, where ``nominal[j]`` is vehicle
+            ``j``'s candidate closest to the centre of its candidate controls (straight flight,
+            coasting) -- the plan a vehicle assumes for a partner before any exchange.
+
+    Returns:
+        The final plans and diagnostics.
+    """
+    controls, positions = _validate_candidates(candidate_controls, candidate_positions)
+    n_vehicles = len(controls)
+    if initial_indices is None:
+        nominal = np.array(
+            [int(np.argmin(np.linalg.norm(u - u.mean(axis=0), axis=1))) for u in controls],
+            dtype=np.int64,
+        )
+        plans = np.array(
+            [
+                int(np.argmax(_checked_utility(utility, i, nominal, controls[i].shape[0])))
+                for i in range(n_vehicles)
+            ],
+            dtype=np.int64,
+        )
+    else:
+        plans = np.asarray(initial_indices, dtype=np.int64).copy()
+        if plans.shape != (n_vehicles,):
+            raise ValueError(f"initial_indices must have shape ({n_vehicles},), got {plans.shape}")
+        for i in range(n_vehicles):
+            if not 0 <= plans[i] < controls[i].shape[0]:
+                raise ValueError(
+                    f"initial_indices[{i}] = {plans[i]} outside [0, {controls[i].shape[0]})"
+                )
+
+    copies = np.tile(plans, (n_vehicles, 1))
+    beta = settings.beta
+    changes: list[float] = []
+    converged = False
+    iterations = 0
+    local_utilities = np.zeros(n_vehicles)
+    last_beta = beta
+    for iteration in range(1, settings.max_iterations + 1):
+        iterations = iteration
+        last_beta = beta
+        exchanged = plans.copy()  # what every vehicle received at the last exchange
+        new_plans = plans.copy()
+        for i in range(n_vehicles):
+            view = new_plans if settings.schedule == "gauss-seidel" else exchanged
+            copy_i = view.copy()
+            copies[i] = copy_i
+            u_i = _checked_utility(utility, i, copy_i, controls[i].shape[0])
+            others = np.array(
+                [positions[j][copy_i[j]] for j in range(n_vehicles) if j != i]
+            ).reshape(-1, *positions[i].shape[1:])
+            if settings.schedule == "jacobi" and settings.reciprocal and others.shape[0] > 0:
+                # Reciprocal anticipation: partner j is assumed to mirror my displacement.
+                displacement = positions[i] - positions[i][exchanged[i]]  # (C_i, H, 2)
+                others = others[None, :, :] - displacement[:, None, :]
+            anchor = positions[i][exchanged[i]] if settings.schedule == "jacobi" else None
+            objective = local_objective(u_i, positions[i], others, anchor, beta, settings)
+            best = int(np.argmax(objective))
+            # Keep the previous plan on ties (no spurious changes).
+            if objective[exchanged[i]] >= objective[best]:
+                best = int(exchanged[i])
+            new_plans[i] = best
+            copies[i, i] = best
+            local_utilities[i] = u_i[best]
+        change = max(
+            float(np.linalg.norm(controls[i][new_plans[i]] - controls[i][plans[i]]))
+            for i in range(n_vehicles)
+        )
+        changes.append(change)
+        plans = new_plans
+        violation = _horizon_violation(
+            np.array([positions[i][plans[i]] for i in range(n_vehicles)]), settings.min_separation
+        )
+        if change <= settings.tolerance and violation <= settings.feasibility_tolerance:
+            converged = True
+            break
+        beta *= settings.alpha
+
+    final_tracks = np.array([positions[i][plans[i]] for i in range(n_vehicles)])  # (A, H, 2)
+    final_positions = final_tracks[:, 0, :]
+    final_controls = np.array([controls[i][plans[i]] for i in range(n_vehicles)])
+    penalties = np.array(
+        [
+            horizon_separation_penalty(
+                final_tracks[i],
+                np.delete(final_tracks, i, axis=0),
+                settings.min_separation,
+                settings.gamma,
+            )
+            for i in range(n_vehicles)
+        ]
+    )
+    residual = 0.0
+    for i in range(n_vehicles):
+        for j in range(n_vehicles):
+            residual = max(
+                residual,
+                float(np.linalg.norm(controls[j][copies[i, j]] - controls[j][plans[j]])),
+            )
+    return CoordinationResult(
+        indices=plans,
+        controls=final_controls,
+        positions=final_positions,
+        utilities=local_utilities.copy(),
+        penalties=penalties,
+        copies=copies,
+        agreement_residual=residual,
+        iterations=iterations,
+        converged=converged,
+        beta=last_beta,
+        max_violation=_horizon_violation(final_tracks, settings.min_separation),
+        changes=tuple(changes),
+    )
+
+
+def _horizon_violation(tracks: FloatArray, min_separation: float) -> float:
+    """Worst constraint value over the steps of ``(A, H, 2)`` tracks."""
+    return max(max_violation(tracks[:, h, :], min_separation) for h in range(tracks.shape[1]))
+
+
+def _checked_utility(
+    utility: UtilityFunction, i: int, plans: IntArray, n_candidates: int
+) -> FloatArray:
+    values = np.asarray(utility(i, plans.copy()), dtype=np.float64)
+    if values.shape != (n_candidates,):
+        raise ValueError(
+            f"utility for vehicle {i} must return shape ({n_candidates},), got {values.shape}"
+        )
+    if not np.all(np.isfinite(values)):
+        raise ValueError(f"utility for vehicle {i} returned non-finite values")
+    return values
+
+
+def refine_control(
+    cost: Callable[[FloatArray], FloatArray],
+    start: FloatArray,
+    low: FloatArray,
+    high: FloatArray,
+    radius: FloatArray,
+    max_evaluations: int = 12,
+) -> tuple[FloatArray, float]:
+    """Bounded local refinement of a grid choice (minimisation).
+
+    Searches the box ``[start - radius, start + radius]`` intersected with ``[low, high]``:
+    ``scipy.optimize.minimize_scalar(method="bounded")`` for one control coordinate, bounded
+    ``scipy.optimize.minimize(method="Powell")`` for several. Every trial point is clipped into
+    the box before evaluation, and the starting point is returned unless a strictly better
+    point was found.
+
+    Args:
+        cost: ``cost(controls (K, control_dim)) -> (K,)``; the refinement calls it with ``K = 1``.
+        start: ``(control_dim,)`` best grid point (inside the bounds).
+        low: ``(control_dim,)`` lower control bounds.
+        high: ``(control_dim,)`` upper control bounds.
+        radius: ``(control_dim,)`` half-width of the search box (typically one grid spacing).
+        max_evaluations: Budget of cost evaluations of the scipy search (>= 1).
+
+    Returns:
+        ``(control (control_dim,), cost)`` with ``low <= control <= high`` and
+        ``cost <= cost(start)``.
+    """
+    start = np.asarray(start, dtype=np.float64).reshape(-1)
+    low = np.asarray(low, dtype=np.float64).reshape(-1)
+    high = np.asarray(high, dtype=np.float64).reshape(-1)
+    radius = np.broadcast_to(np.asarray(radius, dtype=np.float64), start.shape)
+    if not (start.shape == low.shape == high.shape):
+        raise ValueError(
+            f"start, low and high must have the same shape, got {start.shape}, {low.shape}, "
+            f"{high.shape}"
+        )
+    if np.any(start < low) or np.any(start > high):
+        raise ValueError(f"start {start} lies outside the bounds [{low}, {high}]")
+    if max_evaluations < 1:
+        raise ValueError(f"max_evaluations must be >= 1, got {max_evaluations}")
+    box_low = np.maximum(low, start - radius)
+    box_high = np.minimum(high, start + radius)
+
+    def scalar_cost(u: FloatArray) -> float:
+        u = np.clip(np.asarray(u, dtype=np.float64).reshape(-1), box_low, box_high)
+        value = float(np.asarray(cost(u[None, :])).reshape(-1)[0])
+        return value if np.isfinite(value) else np.inf
+
+    best_u, best_cost = start.copy(), scalar_cost(start)
+    free = box_high > box_low
+    if not np.any(free):
+        return best_u, best_cost
+    if start.size == 1:
+        result = optimize.minimize_scalar(
+            lambda s: scalar_cost(np.array([s])),
+            bounds=(float(box_low[0]), float(box_high[0])),
+            method="bounded",
+            options={"maxiter": max_evaluations, "xatol": 1e-4 * float(radius[0] + 1e-12)},
+        )
+        candidate = np.array([float(result.x)])
+    else:
+        result = optimize.minimize(
+            scalar_cost,
+            start,
+            method="Powell",
+            bounds=list(zip(box_low, box_high, strict=True)),
+            options={"maxfev": max_evaluations, "xtol": 1e-4, "ftol": 1e-6},
+        )
+        candidate = np.asarray(result.x, dtype=np.float64)
+    candidate = np.clip(candidate, box_low, box_high)
+    candidate_cost = scalar_cost(candidate)
+    if candidate_cost < best_cost:
+        return candidate, candidate_cost
+    return best_u, best_cost

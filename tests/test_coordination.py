@@ -1,0 +1,149 @@
+"""Tests of the decentralised penalty coordination (section III.D, eq. 27-30)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from infoseek.planners.coordination import (
+    PenaltySettings,
+    coordinate,
+    horizon_separation_penalty,
+    max_violation,
+    refine_control,
+    separation_penalty,
+)
+
+GRID = np.linspace(-1.0, 1.0, 41)
+OFFSETS = np.stack(np.meshgrid(GRID, GRID, indexing="ij"), axis=-1).reshape(-1, 2)
+
+
+def _attracted(starts: np.ndarray, goals: np.ndarray):
+    """Vehicles that can move by any offset in [-1, 1]^2; utility -||x - goal||^2."""
+    controls = [OFFSETS.copy() for _ in starts]
+    positions = [s + OFFSETS for s in starts]
+    utilities = [-np.sum((p - g) ** 2, axis=1) for p, g in zip(positions, goals, strict=True)]
+    return controls, positions, utilities
+
+
+def test_penalty_matches_closed_form() -> None:
+    rng = np.random.default_rng(0)
+    p = rng.uniform(-2, 2, (7, 2))
+    q = rng.uniform(-2, 2, (5, 2))
+    for gamma in (2.0, 3.0, 2.5):
+        expected = np.array(
+            [sum(max(0.0, 1.3 - float(np.hypot(*(pi - qj)))) ** gamma for qj in q) for pi in p]
+        )
+        np.testing.assert_allclose(separation_penalty(p, q, 1.3, gamma), expected, rtol=1e-12)
+    assert np.all(separation_penalty(p, np.empty((0, 2)), 1.0) == 0)
+    # Horizon form with H = 1 is the one-step penalty; H = 2 sums both steps.
+    np.testing.assert_allclose(
+        horizon_separation_penalty(p[:, None, :], q[:, None, :], 1.3), separation_penalty(p, q, 1.3)
+    )
+    tracks_p = np.stack([p, p + 0.1], axis=1)
+    tracks_q = np.stack([q, q - 0.2], axis=1)
+    np.testing.assert_allclose(
+        horizon_separation_penalty(tracks_p, tracks_q, 1.3),
+        separation_penalty(p, q, 1.3) + separation_penalty(p + 0.1, q - 0.2, 1.3),
+    )
+
+
+@pytest.mark.parametrize("schedule", ["jacobi", "gauss-seidel"])
+def test_penalty_separates_vehicles_pulled_to_one_point(schedule: str) -> None:
+    starts = np.array([[-0.3, 0.0], [0.3, 0.05]])
+    controls, positions, utilities = _attracted(starts, np.zeros((2, 2)))
+    # Unpenalised, both go to the origin (independent argmax): violation ~ d_bar.
+    independent = np.array([positions[i][np.argmax(utilities[i])] for i in range(2)])
+    assert np.linalg.norm(independent[0] - independent[1]) < 0.1
+    settings = PenaltySettings(
+        min_separation=1.0, schedule=schedule, max_iterations=40, feasibility_tolerance=0.02
+    )
+    result = coordinate(controls, positions, lambda i, plans: utilities[i], settings)
+    assert result.converged
+    gap = np.linalg.norm(result.positions[0] - result.positions[1])
+    assert gap >= 1.0 - 0.02
+    # Not pushed further than necessary: the pair stays centred near the goal.
+    assert gap <= 1.2
+    assert result.max_violation <= 0.02
+    assert result.beta < settings.beta  # the penalty had to be tightened
+    assert result.agreement_residual == 0.0
+    np.testing.assert_array_equal(result.copies, np.tile(result.indices, (2, 1)))
+
+
+@pytest.mark.parametrize("schedule", ["jacobi", "gauss-seidel"])
+def test_no_interaction_gives_independent_argmax(schedule: str) -> None:
+    starts = np.array([[-5.0, 0.0], [5.0, 0.0], [0.0, 6.0]])
+    goals = np.array([[-5.5, 0.3], [5.2, -0.7], [0.4, 6.6]])
+    controls, positions, utilities = _attracted(starts, goals)
+    settings = PenaltySettings(min_separation=1.0, schedule=schedule)
+    result = coordinate(controls, positions, lambda i, plans: utilities[i], settings)
+    expected = [int(np.argmax(u)) for u in utilities]
+    np.testing.assert_array_equal(result.indices, expected)
+    assert result.converged and result.iterations == 1
+
+
+@pytest.mark.parametrize("schedule", ["jacobi", "gauss-seidel"])
+def test_coupled_utility_copies_agree(schedule: str) -> None:
+    """A utility that depends on the partners' plans (as the pairwise one does)."""
+    starts = np.array([[-3.0, 0.0], [3.0, 0.0], [0.0, 3.0]])
+    controls, positions, base = _attracted(starts, starts)
+    calls: list[np.ndarray] = []
+
+    def utility(i: int, plans: np.ndarray) -> np.ndarray:
+        calls.append(plans.copy())
+        partners = np.array([positions[j][plans[j]] for j in range(3) if j != i])
+        # Reward being far (up to 4 units) from the partners' planned positions.
+        spread = np.minimum(np.linalg.norm(positions[i][:, None] - partners, axis=-1), 4.0)
+        return base[i] + 0.5 * spread.sum(axis=1)
+
+    settings = PenaltySettings(min_separation=1.0, schedule=schedule, max_iterations=30)
+    result = coordinate(controls, positions, utility, settings)
+    assert result.converged
+    assert result.agreement_residual == 0.0
+    np.testing.assert_array_equal(result.copies, np.tile(result.indices, (3, 1)))
+    # Each final plan is the best response to the others' final plans (a fixed point).
+    for i in range(3):
+        assert (
+            utility(i, result.indices)[result.indices[i]]
+            >= utility(i, result.indices).max() - 1e-12
+        )
+
+
+def test_settings_validation() -> None:
+    with pytest.raises(ValueError, match="alpha"):
+        PenaltySettings(min_separation=1.0, alpha=1.0)
+    with pytest.raises(ValueError, match="gamma"):
+        PenaltySettings(min_separation=1.0, gamma=1.5)
+    with pytest.raises(ValueError, match="schedule"):
+        PenaltySettings(min_separation=1.0, schedule="async")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="utility"):
+        coordinate(
+            [OFFSETS], [OFFSETS], lambda i, p: np.zeros(3), PenaltySettings(min_separation=1.0)
+        )
+
+
+def test_max_violation() -> None:
+    assert max_violation(np.array([[0.0, 0.0], [0.4, 0.0]]), 1.0) == pytest.approx(0.6)
+    assert max_violation(np.array([[0.0, 0.0], [2.0, 0.0]]), 1.0) == 0.0
+
+
+@pytest.mark.parametrize("dim", [1, 2])
+def test_refinement_within_bounds_and_never_worse(dim: int) -> None:
+    rng = np.random.default_rng(3)
+    low, high = -np.ones(dim), np.ones(dim)
+    for _ in range(20):
+        optimum = rng.uniform(-1.5, 1.5, dim)  # sometimes outside the bounds
+
+        def cost(u: np.ndarray, optimum: np.ndarray = optimum) -> np.ndarray:
+            return np.sum((u - optimum) ** 2, axis=-1) + 0.1 * np.sin(5 * u).sum(axis=-1)
+
+        grid = np.linspace(-1, 1, 9)
+        mesh = np.stack(np.meshgrid(*[grid] * dim, indexing="ij"), -1).reshape(-1, dim)
+        start = mesh[np.argmin(cost(mesh))]
+        u, value = refine_control(cost, start, low, high, radius=np.full(dim, 0.25))
+        assert np.all(u >= low) and np.all(u <= high)
+        assert value <= float(cost(start[None])[0]) + 1e-15
+        assert value == pytest.approx(float(cost(u[None])[0]))
+    # A cost that is better outside the bounds: the result stays on the boundary.
+    u, _ = refine_control(lambda u: -u.sum(axis=-1), np.ones(dim), low, high, np.ones(dim))
+    np.testing.assert_allclose(u, np.ones(dim))
