@@ -41,7 +41,9 @@ def _int_list(text: str) -> list[int]:
     try:
         return [int(part) for part in text.split(",") if part.strip()]
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected integers like 4 or 2,3,4, got {text!r}")
+        raise argparse.ArgumentTypeError(
+            f"expected integers like 4 or 2,3,4, got {text!r}"
+        ) from None
 
 
 def _key_value(text: str) -> tuple[str, Any]:
@@ -173,7 +175,11 @@ def run_bench_command(args: argparse.Namespace) -> int:
         groups=[(planner, n) for planner in planners for n in agents],
         trials=args.trials,
     )
-    out = args.out if args.out is not None else Path("infoseek-out") / f"bench-{args.env}-seed{args.seed}"
+    out = (
+        args.out
+        if args.out is not None
+        else Path("infoseek-out") / f"bench-{args.env}-seed{args.seed}"
+    )
     return _run_and_summarise(plan, out, backend, workers, args)
 
 
@@ -189,9 +195,10 @@ def _run_and_summarise(
     )
 
     total = len(plan.groups) * plan.trials
+    where = backend if backend == "serial" else f"{backend} ({workers} workers)"
     print(
         f"bench {plan.env}: {len(plan.groups)} group(s) x {plan.trials} trials, {plan.steps} steps,"
-        f" seed {plan.seed}, backend {backend} ({workers} worker(s)) -> {out}",
+        f" seed {plan.seed}, backend {where} -> {out}",
         flush=True,
     )
     try:
@@ -272,10 +279,14 @@ def run_reproduce_command(args: argparse.Namespace) -> int:
     if args.figure == "fig2":
         if args.backend is not None or args.workers is not None or args.address:
             print("reproduce fig2: one episode; --backend/--workers/--address are ignored")
-        paths = reproduce.reproduce_fig2(
+        result = reproduce.reproduce_fig2(
             out, steps=args.steps, particles=args.particles, seed=args.seed
         )
-        for path in paths:
+        x, y, psi = result.truth
+        print(f"fig2: episode seed {result.env_seed}; beacon at ({x:.2f}, {y:.2f}), psi {psi:.4f}")
+        for step, mass in sorted(result.snapshot_masses.items()):
+            print(f"  t = {step:>2}: posterior mass within 1 unit (agent 0) {mass:.3f}")
+        for path in result.paths:
             print(f"wrote {path}")
         return 0
     backend, workers = _execution(args)
@@ -297,13 +308,17 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``infoseek`` command."""
     parser = argparse.ArgumentParser(
         prog="infoseek",
-        description="Information-seeking mobile sensor networks (Hoffmann, Waslander & Tomlin 2006).",
+        description=(
+            "Information-seeking mobile sensor networks (Hoffmann, Waslander & Tomlin 2006)."
+        ),
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     demo = sub.add_parser("demo", help="run one search episode and write a GIF and a PNG of it")
     add_demo_arguments(demo)
     demo.set_defaults(handler=run_demo)
-    timing = sub.add_parser("timing", help="measure mutual-information, planning and env-step speed")
+    timing = sub.add_parser(
+        "timing", help="measure mutual-information, planning and env-step speed"
+    )
     add_timing_arguments(timing)
     timing.set_defaults(handler=run_timing)
     bench = sub.add_parser(

@@ -1,0 +1,183 @@
+"""The paper's Fig. 1 from a results store (``infoseek plot DIR``).
+
+Fig. 1 of Hoffmann, Waslander & Tomlin (2006) shows, against the time step ``t``, the mean and
+the quartile bars over trials of the probability that the true target is within 1 unit of the
+MMSE estimate, i.e. the posterior mass ``m_t = sum_j w_j [||x_j - xhat|| <= r]`` of the belief
+within the localisation radius ``r`` of its MMSE position estimate ``xhat`` (eq. 12). The store
+records it per step for agent 0's belief (``mass_agent0``, :mod:`infoseek.experiments.bench`).
+
+Panels, each drawn only if the store has its data:
+
+* (a) ``n_v = 4``: single-node approximation dashed, pairwise-node approximation solid;
+* (b) pairwise-node approximation for every stored fleet size (the paper: 2, 3, 4 and 10).
+
+A store with neither (e.g. only random or lawnmower trials) gets one panel with every stored
+(planner, fleet size) curve instead. Curves are the per-step mean; the bars span the 25th to
+75th percentile, drawn every few steps and offset slightly per curve so they stay readable.
+Trials that ended before the others (early termination) are extended with their last value.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from infoseek.experiments.store import read_manifest, read_records
+
+PAPER_FLEET_SIZES: tuple[int, ...] = (2, 3, 4, 10)
+
+
+def mass_curves(
+    records: Sequence[Mapping[str, Any]], field: str = "mass_agent0"
+) -> dict[tuple[str, int], np.ndarray]:
+    """Per-group matrices of a per-step series.
+
+    Args:
+        records: Trial records.
+        field: The per-step series to collect.
+
+    Returns:
+        ``(planner, n_agents) -> (n_trials, T + 1)`` array, shorter trials padded with their
+        last value (``None`` entries become NaN).
+    """
+    grouped: dict[tuple[str, int], list[list[float]]] = {}
+    for record in records:
+        series = [np.nan if v is None else float(v) for v in record[field]]
+        grouped.setdefault((record["planner"], int(record["n_agents"])), []).append(series)
+    curves = {}
+    for key, rows in grouped.items():
+        length = max(len(row) for row in rows)
+        matrix = np.array([row + row[-1:] * (length - len(row)) for row in rows], dtype=float)
+        curves[key] = matrix
+    return curves
+
+
+def _draw_group(
+    axes: Any,
+    matrix: np.ndarray,
+    label: str,
+    *,
+    linestyle: str = "-",
+    color: Any = None,
+    offset: float = 0.0,
+) -> None:
+    steps = np.arange(matrix.shape[1])
+    mean = np.nanmean(matrix, axis=0)
+    q25, q75 = np.nanpercentile(matrix, [25, 75], axis=0)
+    every = max(1, matrix.shape[1] // 12)
+    (line,) = axes.plot(steps, mean, linestyle=linestyle, color=color, label=label, lw=1.6)
+    marks = steps[::every]
+    axes.errorbar(
+        marks + offset,
+        mean[::every],
+        yerr=np.vstack([mean[::every] - q25[::every], q75[::every] - mean[::every]]),
+        fmt="none",
+        ecolor=line.get_color(),
+        elinewidth=1.0,
+        capsize=2.5,
+    )
+
+
+def _style(axes: Any, title: str, radius: float) -> None:
+    axes.set_title(title)
+    axes.set_xlabel("time step")
+    axes.set_ylabel(f"P(target within {radius:g} of MMSE estimate)")
+    axes.set_ylim(-0.02, 1.02)
+    axes.grid(alpha=0.3)
+    axes.legend(loc="upper left", fontsize="small")
+
+
+def fig1_panels(groups: Sequence[tuple[str, int]]) -> list[tuple[str, list[tuple[str, int]]]]:
+    """Which panels of Fig. 1 the stored groups allow, and their curves.
+
+    Args:
+        groups: The stored ``(planner, n_agents)`` groups.
+
+    Returns:
+        ``[(panel id, [(planner, n_agents), ...]), ...]`` with panel ids ``"a"`` (single and
+        pairwise at ``n_v = 4``), ``"b"`` (pairwise, every stored fleet size, ascending) or,
+        when neither applies, ``"all"`` (every group).
+    """
+    available = set(groups)
+    panel_a = [(p, 4) for p in ("single", "pairwise") if (p, 4) in available]
+    panel_b = sorted((g for g in available if g[0] == "pairwise"), key=lambda g: g[1])
+    panels = [(name, keys) for name, keys in (("a", panel_a), ("b", panel_b)) if keys]
+    return panels or [("all", sorted(available))]
+
+
+_PANEL_TITLES = {
+    "a": "(a) $n_v = 4$: single-node (dashed), pairwise-node (solid)",
+    "b": "(b) pairwise-node, varying fleet size",
+    "all": "all stored runs",
+}
+
+
+def plot_fig1(
+    records: Sequence[Mapping[str, Any]], out_stem: str | os.PathLike[str], title: str = ""
+) -> list[Path]:
+    """Draw Fig. 1 from ``records`` into ``out_stem.png`` and ``out_stem.svg``.
+
+    Args:
+        records: Trial records of one store.
+        out_stem: Output path without suffix.
+        title: Figure title (e.g. the environment and episode length).
+
+    Returns:
+        The written paths.
+
+    Raises:
+        ValueError: No records.
+    """
+    from matplotlib.figure import Figure
+
+    if not records:
+        raise ValueError("nothing to plot: the results store has no finished trials")
+    curves = mass_curves(records)
+    radius = float(records[0].get("radius", 1.0))
+    panels = fig1_panels(list(curves))
+    figure = Figure(figsize=(6.2 * len(panels), 4.6), layout="constrained")
+    for index, (panel, keys) in enumerate(panels):
+        axes = figure.add_subplot(1, len(panels), index + 1)
+        for position, (planner, n_agents) in enumerate(keys):
+            matrix = curves[planner, n_agents]
+            offset = 0.12 * (position - (len(keys) - 1) / 2)
+            count = f"({matrix.shape[0]} trials)"
+            if panel == "a":
+                label = f"{planner}-node {count}"
+                style, color = ("--" if planner == "single" else "-"), "C0"
+            elif panel == "b":
+                label, style, color = f"$n_v = {n_agents}$ {count}", "-", f"C{position % 10}"
+            else:
+                label = f"{planner}, $n_v = {n_agents}$ {count}"
+                style, color = "-", f"C{position % 10}"
+            _draw_group(axes, matrix, label, linestyle=style, color=color, offset=offset)
+        _style(axes, _PANEL_TITLES[panel], radius)
+    if title:
+        figure.suptitle(title)
+    stem = Path(out_stem)
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    paths = [stem.with_name(stem.name + ".png"), stem.with_name(stem.name + ".svg")]
+    for path in paths:
+        figure.savefig(path, dpi=130)
+    return paths
+
+
+def plot_fig1_from_store(
+    directory: str | os.PathLike[str], out_stem: str | os.PathLike[str] | None = None
+) -> list[Path]:
+    """Fig. 1 of the results store in ``directory`` (default output ``directory/fig1``)."""
+    manifest = read_manifest(directory)
+    records = read_records(directory)
+    if not records:
+        raise ValueError(f"nothing to plot: {directory} has no finished trials yet")
+    config = manifest.get("config", {})
+    title = (
+        f"{config.get('env', '?')}: posterior mass within the localisation radius, "
+        f"{config.get('steps', '?')} steps"
+    )
+    stem = Path(out_stem) if out_stem is not None else Path(directory) / "fig1"
+    return plot_fig1(records, stem, title=title)

@@ -1,0 +1,187 @@
+"""The paper's figures with the paper's settings (``infoseek reproduce fig1|fig2``).
+
+Fig. 1 (section IV.A, bearings-only search, ``bearings_v0``): Monte Carlo trials (1000 per
+curve in the paper) of the single- and pairwise-node planners with ``n_v = 4`` airplanes (panel
+a) and of the pairwise-node planner with 2, 3, 4 and 10 airplanes (panel b), stored in
+``OUT/store`` by the resumable benchmark (:mod:`infoseek.experiments.bench`) and drawn by
+:mod:`infoseek.experiments.plot` as ``OUT/fig1.png`` and ``OUT/fig1.svg``. The pairwise
+``n_v = 4`` curve is shared by both panels. Other settings are the environment's defaults
+(2000 particles per vehicle, 40 x 40 domain, uniform prior, episode length ``max_cycles``).
+
+Fig. 2 (section IV.B, rescue-beacon search, ``beacon_v0``): one episode of four quadrotors with
+the pairwise-node planner; the environment's ``rgb_array`` frames (agent 0's particles, the
+MMSE estimate, the vehicle trails and the true beacon) after steps 1, 2, 5 and 20 form a 2 x 2
+panel ``OUT/fig2.png``. The paper's beacon has true orientation ``pi/4``. ``beacon_v0`` draws
+the beacon from the uniform prior at ``reset`` and offers no option to choose it, so the
+episode's seed is the first of a deterministic sequence of candidate seeds (derived from
+``--seed``) whose drawn orientation is within :data:`FIG2_ORIENTATION_TOLERANCE` of ``pi/4``
+and whose position is at least :data:`FIG2_MIN_START_DISTANCE` units from the starting
+vehicles (the position is otherwise random: the paper does not give it).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from infoseek.experiments.bench import BenchPlan, default_steps, derive_seed, make_env
+from infoseek.experiments.policies import make_policy
+
+FIG1_ENV = "bearings_v0"
+FIG1_GROUPS: tuple[tuple[str, int], ...] = (
+    ("single", 4),
+    ("pairwise", 4),
+    ("pairwise", 2),
+    ("pairwise", 3),
+    ("pairwise", 10),
+)
+FIG2_ENV = "beacon_v0"
+FIG2_AGENTS = 4
+FIG2_PLANNER = "pairwise"
+FIG2_SNAPSHOT_STEPS: tuple[int, ...] = (1, 2, 5, 20)
+FIG2_ORIENTATION = math.pi / 4
+FIG2_ORIENTATION_TOLERANCE = 0.02
+FIG2_MIN_START_DISTANCE = 10.0
+_FIG2_MAX_CANDIDATES = 20_000
+
+
+def fig1_plan(
+    trials: int = 1000, steps: int | None = None, particles: int | None = None, seed: int = 0
+) -> BenchPlan:
+    """The benchmark plan of Fig. 1 (``steps`` default: the environment's episode length)."""
+    env_kwargs: dict[str, Any] = {}
+    if particles is not None:
+        env_kwargs["n_particles"] = particles
+    if steps is None:
+        steps = default_steps(FIG1_ENV, env_kwargs)
+    return BenchPlan(
+        env=FIG1_ENV,
+        env_kwargs=env_kwargs,
+        steps=steps,
+        seed=seed,
+        groups=list(FIG1_GROUPS),
+        trials=trials,
+    )
+
+
+def fig2_env_seed(seed: int = 0, tolerance: float = FIG2_ORIENTATION_TOLERANCE) -> int:
+    """The first candidate seed whose beacon has the paper's orientation ``pi/4``.
+
+    Accepted: orientation within ``tolerance`` of ``pi/4`` and position at least
+    :data:`FIG2_MIN_START_DISTANCE` from every starting vehicle (so the search has somewhere
+    to go, as in the paper's figure).
+
+    Candidates are ``derive_seed("fig2", seed, i)`` for ``i = 0, 1, ...``; the drawn target
+    depends only on the seed (not on the particle count), so the search uses one-particle
+    environments.
+
+    Raises:
+        ValueError: No candidate within the first 20000 (only for absurd tolerances).
+    """
+    probe = make_env(FIG2_ENV, n_agents=FIG2_AGENTS, n_particles=1)
+    try:
+        for index in range(_FIG2_MAX_CANDIDATES):
+            candidate = derive_seed("fig2", seed, index)
+            probe.reset(seed=candidate)
+            target = probe.unwrapped.true_target()
+            starts = np.asarray(probe.unwrapped.vehicle_states)[:, :2]
+            distance = float(np.min(np.hypot(*(starts - target[:2]).T)))
+            if (
+                abs(float(target[2]) - FIG2_ORIENTATION) <= tolerance
+                and distance >= FIG2_MIN_START_DISTANCE
+            ):
+                return candidate
+    finally:
+        probe.close()
+    raise ValueError(f"no seed with beacon orientation within {tolerance} of pi/4")
+
+
+@dataclass(frozen=True)
+class Fig2Result:
+    """What :func:`reproduce_fig2` produced.
+
+    Attributes:
+        paths: The written files.
+        env_seed: Seed of the episode.
+        truth: ``(3,)`` true beacon state ``(x, y, psi)``.
+        snapshot_masses: Step -> agent 0's posterior mass within the localisation radius.
+    """
+
+    paths: list[Path]
+    env_seed: int
+    truth: np.ndarray
+    snapshot_masses: dict[int, float]
+
+
+def reproduce_fig2(
+    out: str | os.PathLike[str],
+    steps: int | None = None,
+    particles: int | None = None,
+    seed: int = 0,
+) -> Fig2Result:
+    """Run the Fig. 2 episode and write ``out/fig2.png``.
+
+    Args:
+        out: Output directory.
+        steps: Episode length (default 20, the last snapshot); snapshots beyond it are taken
+            at the last step instead.
+        particles: Particles per belief (default: the environment's 2000).
+        seed: Root seed (selects the episode, see :func:`fig2_env_seed`).
+
+    Returns:
+        The written paths, the episode's seed and true beacon, and the snapshot masses.
+    """
+    from matplotlib.figure import Figure
+
+    steps = max(FIG2_SNAPSHOT_STEPS) if steps is None else steps
+    if steps < 1:
+        raise ValueError(f"--steps must be >= 1, got {steps}")
+    snapshots = sorted({min(s, steps) for s in FIG2_SNAPSHOT_STEPS})
+    kwargs: dict[str, Any] = {"n_agents": FIG2_AGENTS, "max_cycles": steps}
+    if particles is not None:
+        kwargs["n_particles"] = particles
+    env_seed = fig2_env_seed(seed)
+    env = make_env(FIG2_ENV, render_mode="rgb_array", **kwargs)
+    frames: dict[int, np.ndarray] = {}
+    masses: dict[int, float] = {}
+    try:
+        observations, infos = env.reset(seed=env_seed)
+        truth = env.unwrapped.true_target()
+        if abs(float(truth[2]) - FIG2_ORIENTATION) > FIG2_ORIENTATION_TOLERANCE:
+            raise RuntimeError(  # the env's seeding no longer draws the target first
+                f"{FIG2_ENV}: seed {env_seed} gave orientation {truth[2]:.4f} with these "
+                "settings instead of pi/4; fig2_env_seed needs updating"
+            )
+        policy = make_policy(FIG2_PLANNER, env, seed=derive_seed("fig2-policy", seed))
+        first = env.possible_agents[0]
+        for step in range(1, steps + 1):
+            if not env.agents:
+                break
+            observations, _, _, _, infos = env.step(policy.act(observations, infos))
+            if step in snapshots:
+                frames[step] = env.render()
+                masses[step] = float(infos[first]["posterior_mass"])
+    finally:
+        env.close()
+
+    figure = Figure(figsize=(10, 10), layout="constrained")
+    letters = "abcd"
+    for index, step in enumerate(sorted(frames)):
+        axes = figure.add_subplot(2, 2, index + 1)
+        axes.imshow(frames[step])
+        axes.set_axis_off()
+        axes.set_title(f"({letters[index]}) t = {step}, mass within 1 unit {masses[step]:.2f}")
+    figure.suptitle(
+        f"{FIG2_AGENTS} quadrotors, pairwise-node planner; true beacon "
+        f"({truth[0]:.1f}, {truth[1]:.1f}), orientation {truth[2]:.3f} (pi/4 = {math.pi / 4:.3f})"
+    )
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / "fig2.png"
+    figure.savefig(path, dpi=110)
+    return Fig2Result(paths=[path], env_seed=env_seed, truth=truth, snapshot_masses=masses)

@@ -1,0 +1,190 @@
+"""``infoseek train``: parameter-shared RL training of one policy for every agent.
+
+Example (PPO on the default bearings-only scenario, 4 airplanes)::
+
+    infoseek train --algo ppo --env bearings_v0 --agents 4 --timesteps 1000000 --out runs/ppo
+
+The run directory ``--out`` receives ``model.zip`` and ``config.json`` (what
+``infoseek bench --policy DIR/model.zip`` and :func:`infoseek.baselines.load_policy` read),
+``eval.csv`` (the training curve: mean entropy reduction and posterior mass of seeded evaluation
+episodes every ``--eval-freq`` timesteps), ``checkpoints/`` and ``tb/`` (TensorBoard:
+``tensorboard --logdir DIR/tb``). A timestep is one agent transition (an episode of 60 steps
+with 4 agents is 240 timesteps).
+
+**Resuming:** rerun the same command (same ``--out``, algorithm, environment, agents, action type
+and environment keywords) after an interruption, or with a larger ``--timesteps``, and training
+continues from the newest checkpoint (or ``model.zip``) with its timestep count; the rows of
+``eval.csv`` after that count are dropped. Ctrl-C exits with code 130 and keeps the
+checkpoints.
+
+Requires the optional RL dependencies (``pip install 'infoseek[rl]'``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from infoseek.envs import registry
+
+__all__ = ["add_train_arguments", "run_train"]
+
+#: Exit code of an interrupted (Ctrl-C) run (the checkpoints are kept; a rerun resumes).
+EXIT_INTERRUPTED = 130
+
+
+def _key_value(text: str) -> tuple[str, Any]:
+    """``KEY=VALUE`` with VALUE parsed as JSON when possible (argparse type)."""
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
+    try:
+        return key, json.loads(value)
+    except ValueError:
+        return key, value
+
+
+def add_train_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``infoseek train``."""
+    parser.add_argument(
+        "--algo", choices=("ppo", "sac", "td3"), default="ppo", help="algorithm (default ppo)"
+    )
+    parser.add_argument(
+        "--env", default="bearings_v0", choices=sorted(registry), help="environment id"
+    )
+    parser.add_argument("--agents", type=int, default=4, help="number of agents (default 4)")
+    parser.add_argument(
+        "--timesteps",
+        type=int,
+        required=True,
+        help="total agent transitions to train for (including resumed ones)",
+    )
+    parser.add_argument("--out", type=Path, required=True, help="run directory (resumable)")
+    parser.add_argument("--seed", type=int, default=0, help="seed (default 0)")
+    parser.add_argument(
+        "--n-envs", type=int, default=2, help="environment copies trained on (default 2)"
+    )
+    parser.add_argument(
+        "--num-cpus",
+        type=int,
+        default=0,
+        help="worker processes stepping the copies (default 0: in this process)",
+    )
+    parser.add_argument(
+        "--action-type",
+        choices=("continuous", "discrete"),
+        default="continuous",
+        help="action space (sac/td3: continuous only)",
+    )
+    parser.add_argument(
+        "--particles", type=int, default=None, help="particles per belief (default: env's)"
+    )
+    parser.add_argument(
+        "--env-kwarg",
+        type=_key_value,
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="extra environment keyword (VALUE parsed as JSON), repeatable",
+    )
+    parser.add_argument(
+        "--hyper",
+        type=_key_value,
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="algorithm hyperparameter override, e.g. n_steps=240 or net_arch=[64,64]",
+    )
+    parser.add_argument(
+        "--eval-freq",
+        type=int,
+        default=20_000,
+        help="timesteps between evaluations (0: only at the end; default 20000)",
+    )
+    parser.add_argument(
+        "--eval-episodes", type=int, default=5, help="seeded episodes per evaluation (default 5)"
+    )
+    parser.add_argument(
+        "--checkpoint-freq",
+        type=int,
+        default=50_000,
+        help="timesteps between checkpoints (0: none; default 50000)",
+    )
+    parser.add_argument(
+        "--torch-threads", type=int, default=1, help="torch CPU threads (default 1)"
+    )
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def run_train(args: argparse.Namespace) -> int:
+    """Train (or resume) the run described by ``args``; returns the exit code.
+
+    Raises:
+        ValueError: invalid arguments or an incompatible existing run directory.
+    """
+    try:
+        from infoseek.baselines.training import TrainingConfig, train
+    except ImportError as error:
+        raise ValueError(
+            f"infoseek train needs the optional RL dependencies (pip install 'infoseek[rl]'): "
+            f"{error}"
+        ) from None
+
+    env_kwargs = dict(args.env_kwarg)
+    if args.particles is not None:
+        if args.particles < 1:
+            raise ValueError(f"--particles must be >= 1, got {args.particles}")
+        env_kwargs["n_particles"] = args.particles
+    if args.torch_threads is not None and args.torch_threads < 1:
+        raise ValueError(f"--torch-threads must be >= 1, got {args.torch_threads}")
+    config = TrainingConfig(
+        algo=args.algo,
+        env_id=args.env,
+        n_agents=args.agents,
+        action_type=args.action_type,
+        timesteps=args.timesteps,
+        seed=args.seed,
+        n_envs=args.n_envs,
+        num_cpus=args.num_cpus,
+        env_kwargs=env_kwargs,
+        hyperparameters=dict(args.hyper),
+        eval_freq=args.eval_freq,
+        eval_episodes=args.eval_episodes,
+        checkpoint_freq=args.checkpoint_freq,
+        torch_threads=args.torch_threads,
+    )
+    print(
+        f"train {config.algo} on {config.env_id} ({config.n_agents} agents, "
+        f"{config.action_type} actions), {config.timesteps} timesteps, seed {config.seed} "
+        f"-> {args.out}",
+        flush=True,
+    )
+
+    def report(timesteps: int, summary: dict[str, float]) -> None:
+        print(
+            f"  eval @ {timesteps}: entropy reduction {summary['mean_entropy_reduction']:.3f}, "
+            f"final posterior mass {summary['mean_final_posterior_mass']:.3f}, "
+            f"mean posterior mass {summary['mean_posterior_mass']:.3f}",
+            flush=True,
+        )
+
+    try:
+        result = train(config, args.out, progress=not args.no_progress, on_evaluation=report)
+    except KeyboardInterrupt:
+        print(
+            f"infoseek train: interrupted; checkpoints are in {args.out}, rerun the same "
+            "command to resume",
+            file=sys.stderr,
+        )
+        return EXIT_INTERRUPTED
+    if result.resumed_from is not None:
+        print(f"resumed from {result.resumed_from} at {result.start_timesteps} timesteps")
+    if result.start_timesteps >= config.timesteps and result.last_evaluation is None:
+        print(f"{result.model_path} already has {result.timesteps} timesteps; nothing to do")
+    print(f"wrote {result.model_path} ({result.timesteps} timesteps, {result.wall_seconds:.1f} s)")
+    print(f"wrote {result.config_path}")
+    print(f"training curve: {result.curve_path}")
+    return 0

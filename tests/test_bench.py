@@ -1,0 +1,394 @@
+"""Tests of the Monte Carlo harness: seeds, metrics, the results store, resume, backends."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from infoseek.experiments import bench, store
+from infoseek.experiments.bench import (
+    TIMING_FIELDS,
+    BenchPlan,
+    TrialSpec,
+    run_bench,
+    run_trial,
+    summarise,
+    time_to_localise,
+    trial_seeds,
+)
+from infoseek.experiments.store import (
+    ResultsStore,
+    StoreConfigError,
+    StoreCorruptError,
+    StoreLockedError,
+    read_records,
+)
+
+TESTS_DIR = Path(__file__).resolve().parent
+# Tiny but real: bearings-only env, few particles and steps, the random policy.
+TINY_KWARGS = {"n_particles": 150}
+TINY_STEPS = 4
+
+
+class SleepyRandomPolicy:
+    """Uniform random actions from its own seeded stream; sleeps if INFOSEEK_TEST_SLEEP is set.
+
+    The sleep only slows the run down (for the kill test); the actions do not depend on it.
+    """
+
+    def __init__(self, env: Any, seed: int | None = None) -> None:
+        self.env = env
+        self.rng = np.random.default_rng(seed)
+        self.sleep = float(os.environ.get("INFOSEEK_TEST_SLEEP", "0"))
+
+    def act(self, observations: dict, infos: dict) -> dict:
+        if self.sleep:
+            time.sleep(self.sleep)
+        actions = {}
+        for agent in self.env.possible_agents:
+            space = self.env.action_space(agent)
+            actions[agent] = self.rng.uniform(space.low, space.high).astype(space.dtype)
+        return {agent: actions[agent] for agent in self.env.agents}
+
+
+def sleepy_random_policy(env: Any, seed: int | None = None, **options: Any) -> SleepyRandomPolicy:
+    """Planner factory usable as ``--planner test_bench:sleepy_random_policy``."""
+    return SleepyRandomPolicy(env, seed=seed)
+
+
+def tiny_plan(trials: int = 3, groups: list[tuple[str, int]] | None = None) -> BenchPlan:
+    return BenchPlan(
+        env="bearings_v0",
+        env_kwargs=dict(TINY_KWARGS),
+        steps=TINY_STEPS,
+        seed=7,
+        groups=groups or [("random", 1), ("random", 3), ("single", 2)],
+        trials=trials,
+    )
+
+
+def deterministic(records: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Records by key, without the timing fields (which legitimately differ between runs)."""
+    return {r["key"]: {k: v for k, v in r.items() if k not in TIMING_FIELDS} for r in records}
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, Any]]:
+    """The tiny plan (random and single-node MI planner) run serially, uninterrupted."""
+    out = tmp_path_factory.mktemp("reference")
+    result = run_bench(tiny_plan(), out, backend="serial", progress=False)
+    assert result.ran == 9 and result.skipped == 0
+    return deterministic(read_records(out))
+
+
+# ------------------------------------------------------------------------------------ seeds
+def test_trial_seeds_are_pure_and_share_the_target_across_groups() -> None:
+    a = trial_seeds(7, "bearings_v0", "single", 4, 3)
+    assert a == trial_seeds(7, "bearings_v0", "single", 4, 3)
+    pairwise = trial_seeds(7, "bearings_v0", "pairwise", 4, 3)
+    ten = trial_seeds(7, "bearings_v0", "pairwise", 10, 3)
+    # same env seed (common random numbers), different policy seeds
+    assert a[0] == pairwise[0] == ten[0]
+    assert len({a[1], pairwise[1], ten[1]}) == 3
+    others = {
+        trial_seeds(8, "bearings_v0", "single", 4, 3)[0],
+        trial_seeds(7, "beacon_v0", "single", 4, 3)[0],
+        trial_seeds(7, "bearings_v0", "single", 4, 4)[0],
+    }
+    assert a[0] not in others and len(others) == 3
+    assert all(0 <= s < 2**63 for s in (*a, *others))
+
+
+def test_env_seed_gives_every_fleet_size_the_same_target() -> None:
+    from infoseek.envs import make
+
+    targets = []
+    for n_agents in (2, 4, 10):
+        env = make("bearings_v0", n_agents=n_agents, n_particles=10)
+        env.reset(seed=trial_seeds(7, "bearings_v0", "pairwise", n_agents, 5)[0])
+        targets.append(env.unwrapped.true_target())
+    np.testing.assert_array_equal(targets[0], targets[1])
+    np.testing.assert_array_equal(targets[0], targets[2])
+
+
+# ---------------------------------------------------------------------------------- metrics
+def test_position_metrics_match_brute_force(rng: np.random.Generator) -> None:
+    class View:
+        particles = rng.uniform(0, 10, size=(300, 3))
+        weights = rng.dirichlet(np.ones(300))
+
+    truth = np.array([4.0, 6.0])
+    mass, error = bench._position_metrics(View, truth, radius=1.5)
+    estimate = sum(w * p[:2] for w, p in zip(View.weights, View.particles, strict=True))
+    brute_mass = sum(
+        w
+        for w, p in zip(View.weights, View.particles, strict=True)
+        if np.linalg.norm(p[:2] - estimate) <= 1.5
+    )
+    assert mass == pytest.approx(brute_mass, abs=1e-12)
+    assert error == pytest.approx(np.linalg.norm(estimate - truth), abs=1e-12)
+
+
+def test_min_separation_matches_brute_force(rng: np.random.Generator) -> None:
+    states = rng.uniform(0, 20, size=(6, 4))
+    brute = min(
+        np.linalg.norm(states[i, :2] - states[j, :2]) for i in range(6) for j in range(i + 1, 6)
+    )
+    assert bench._min_separation(states) == pytest.approx(brute, abs=1e-12)
+    assert bench._min_separation(states[:1]) is None
+
+
+def test_time_to_localise_and_censored_summary() -> None:
+    assert time_to_localise([0.0, 0.5, 0.9, 0.2]) == 2
+    assert time_to_localise([0.0, 0.89, None]) is None
+    records = [
+        {"planner": "p", "n_agents": 2, "mass_agent0": m, "plan_time": [0.001, 0.003]}
+        for m in ([0, 0.95, 1], [0, 0.1, 0.92], [0, 0.1, 0.2], [0, 0.1, 0.3])
+    ]
+    (row,) = summarise(records, steps=2)
+    # times 1, 2 and two censored at 2 -> [1, 2, 2, 2]
+    assert row.trials == 4 and row.never == 2
+    assert row.ttl_mean == pytest.approx(1.75)
+    assert row.ttl_quartiles == pytest.approx(tuple(np.percentile([1, 2, 2, 2], [25, 50, 75])))
+    assert row.final_mass == pytest.approx(np.mean([1, 0.92, 0.2, 0.3]))
+    assert row.plan_ms == pytest.approx(2.0)
+
+
+def test_trial_record_matches_the_environment(reference: dict[str, dict[str, Any]]) -> None:
+    """Replay one trial by hand: the record's series equal the env's own per-step infos."""
+    from infoseek.envs import make
+    from infoseek.experiments.policies import make_policy
+
+    record = reference["random/agents=3/trial=1"]
+    env = make("bearings_v0", n_agents=3, max_cycles=TINY_STEPS, **TINY_KWARGS)
+    observations, infos = env.reset(seed=record["env_seed"])
+    policy = make_policy("random", env, seed=record["policy_seed"])
+    masses = [[infos[a]["posterior_mass"] for a in env.possible_agents]]
+    entropies = [infos["vehicle_0"]["entropy"]]
+    while env.agents:
+        observations, _, _, _, infos = env.step(policy.act(observations, infos))
+        masses.append([infos[a]["posterior_mass"] for a in env.possible_agents])
+        entropies.append(infos["vehicle_0"]["entropy"])
+    truth = env.unwrapped.true_target()
+    assert record["n_steps"] == TINY_STEPS
+    for name in ("mass_agent0", "mass_team", "error_agent0", "entropy_team", "min_separation"):
+        assert len(record[name]) == TINY_STEPS + 1, name
+    masses = np.array(masses)
+    np.testing.assert_allclose(record["mass_agent0"], masses[:, 0], atol=1e-9)
+    np.testing.assert_allclose(record["mass_team"], masses.mean(axis=1), atol=1e-9)
+    np.testing.assert_allclose(record["entropy_agent0"], entropies, atol=1e-12)
+    np.testing.assert_allclose(record["truth"], truth)
+    assert all(s > 0 for s in record["min_separation"])
+    final_estimate = env.unwrapped.agent_belief("vehicle_0").mmse()[:2]
+    assert record["error_agent0"][-1] == pytest.approx(np.linalg.norm(final_estimate - truth[:2]))
+
+
+# ------------------------------------------------------------------------------------ store
+CONFIG = {"env": "x", "env_kwargs": {}, "steps": 3, "seed": 0, "version": "t"}
+
+
+def test_store_append_is_durable_unique_and_torn_tail_is_dropped(tmp_path: Path) -> None:
+    with ResultsStore(tmp_path / "s", CONFIG) as s:
+        assert s.append({"key": "a", "v": 1.5})
+        assert not s.append({"key": "a", "v": 2.0})  # never stored twice
+        assert s.append({"key": "b", "v": float("nan")})
+    trials = tmp_path / "s" / store.TRIALS_NAME
+    with open(trials, "ab") as f:
+        f.write(b'{"key": "c", "v"')  # a killed writer's torn line
+    assert [r["key"] for r in read_records(tmp_path / "s")] == ["a", "b"]
+    assert read_records(tmp_path / "s")[1]["v"] is None  # strict JSON: NaN -> null
+    with ResultsStore(tmp_path / "s", CONFIG) as s:
+        assert s.keys == {"a", "b"}
+        assert trials.read_bytes().endswith(b"}\n")  # truncated back to the last full line
+        s.append({"key": "c", "v": 3})
+    lines = trials.read_text().splitlines()
+    assert [json.loads(line)["key"] for line in lines] == ["a", "b", "c"]
+
+
+def test_store_refuses_other_configurations_and_foreign_dirs(tmp_path: Path) -> None:
+    with ResultsStore(tmp_path / "s", CONFIG) as s:
+        s.append({"key": "a"})
+    before = {p.name: p.read_bytes() for p in (tmp_path / "s").iterdir()}
+    with pytest.raises(StoreConfigError, match="steps: stored 3, requested 4"):
+        ResultsStore(tmp_path / "s", {**CONFIG, "steps": 4})
+    assert {p.name: p.read_bytes() for p in (tmp_path / "s").iterdir()} == before
+    (tmp_path / "foreign").mkdir()
+    (tmp_path / "foreign" / "notes.txt").write_text("mine")
+    with pytest.raises(StoreConfigError, match="not an infoseek results directory"):
+        ResultsStore(tmp_path / "foreign", CONFIG)
+    assert sorted(p.name for p in (tmp_path / "foreign").iterdir()) == ["notes.txt"]
+
+
+def test_store_detects_damage_and_concurrent_writers(tmp_path: Path) -> None:
+    with ResultsStore(tmp_path / "s", CONFIG) as s:
+        s.append({"key": "a"})
+        with pytest.raises(StoreLockedError):
+            ResultsStore(tmp_path / "s", CONFIG)
+        s.append({"key": "b"})
+    trials = tmp_path / "s" / store.TRIALS_NAME
+    trials.write_text('{"key": "a"}\nnot json\n{"key": "b"}\n')
+    with pytest.raises(StoreCorruptError, match="line 2"):
+        read_records(tmp_path / "s")
+
+
+# ----------------------------------------------------------------------------- bench / resume
+def test_bench_resumes_from_a_partial_store_with_a_torn_line(
+    tmp_path: Path, reference: dict[str, dict[str, Any]]
+) -> None:
+    out = tmp_path / "run"
+    with ResultsStore(out, tiny_plan().config()) as s:
+        for spec in tiny_plan().specs()[::2]:  # every other trial "finished" before the kill
+            s.append(run_trial(spec))
+    with open(out / store.TRIALS_NAME, "ab") as f:
+        f.write(b'{"key": "random/agents=3/trial=2", "mass_age')
+    result = run_bench(tiny_plan(), out, backend="serial", progress=False)
+    assert (result.ran, result.skipped) == (4, 5)
+    lines = (out / store.TRIALS_NAME).read_text().splitlines()
+    keys = [json.loads(line)["key"] for line in lines]
+    assert sorted(keys) == sorted(set(keys)) and len(keys) == 9  # each trial exactly once
+    assert deterministic(read_records(out)) == reference
+    again = run_bench(tiny_plan(), out, backend="serial", progress=False)
+    assert (again.ran, again.skipped) == (0, 9)
+    assert len((out / store.TRIALS_NAME).read_text().splitlines()) == 9
+
+
+def test_bench_adds_groups_to_an_existing_run(tmp_path: Path) -> None:
+    sleepy = "test_bench:sleepy_random_policy"
+    first = run_bench(tiny_plan(trials=1, groups=[("random", 2)]), tmp_path, progress=False)
+    result = run_bench(
+        tiny_plan(trials=2, groups=[("random", 2), (sleepy, 2)]), tmp_path, progress=False
+    )
+    assert (result.ran, result.skipped) == (3, 1)
+    assert {r["key"] for r in result.records} == {
+        "random/agents=2/trial=0",
+        "random/agents=2/trial=1",
+        f"{sleepy}/agents=2/trial=0",
+        f"{sleepy}/agents=2/trial=1",
+    }
+    assert result.records[0] == first.records[0]  # the stored trial is kept as it was
+    assert len(read_records(tmp_path)) == 4
+
+
+def test_bench_plan_rejects_bad_requests() -> None:
+    with pytest.raises(ValueError, match="--trials"):
+        tiny_plan(trials=0)
+    with pytest.raises(ValueError, match="unknown planner 'nope'"):
+        tiny_plan(groups=[("nope", 2)])
+    with pytest.raises(ValueError, match="--agents"):
+        tiny_plan(groups=[("random", 0)])
+    with pytest.raises(ValueError, match="unknown backend"):
+        bench.execute([TrialSpec("bearings_v0", {}, 1, "random", 1, 0, 1, 2)], backend="mpi")
+    with pytest.raises(ValueError, match="no such file"):
+        bench.check_policy_path(str(TESTS_DIR / "no-such-model.zip"))
+
+
+def test_trained_policy_hook_resolves_through_baselines(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--policy PATH`` trials load ``PATH`` with ``infoseek.baselines.load_policy``."""
+    import infoseek.baselines
+
+    model = tmp_path / "model.zip"
+    model.write_bytes(b"weights")
+    loaded: list[tuple[str, int | None]] = []
+
+    def fake_load_policy(path: str, env: Any, *, seed: int | None = None) -> Any:
+        loaded.append((path, seed))
+        return SleepyRandomPolicy(env, seed=seed)
+
+    # setitem on the module dict: getattr would import the real (torch-based) loader first
+    monkeypatch.setitem(vars(infoseek.baselines), "load_policy", fake_load_policy)
+    label = bench.check_policy_path(str(model))
+    assert label == f"policy:{model.resolve()}"
+    result = run_bench(tiny_plan(trials=2, groups=[(label, 2)]), tmp_path / "run", progress=False)
+    assert [r["key"] for r in result.records] == [f"{label}/agents=2/trial={k}" for k in (0, 1)]
+    assert loaded == [(str(model.resolve()), r["policy_seed"]) for r in result.records]
+
+    monkeypatch.setitem(vars(infoseek.baselines), "load_policy", None)
+    with pytest.raises(ValueError, match="load_policy"):
+        bench.check_policy_path(str(model))
+
+
+def test_process_backend_gives_identical_records(
+    tmp_path: Path, reference: dict[str, dict[str, Any]]
+) -> None:
+    result = run_bench(tiny_plan(), tmp_path, backend="process", workers=2, progress=False)
+    assert result.ran == 9
+    assert deterministic(read_records(tmp_path)) == reference
+
+
+@pytest.mark.ray
+def test_ray_backend_gives_identical_records(
+    tmp_path: Path, reference: dict[str, dict[str, Any]]
+) -> None:
+    pytest.importorskip("ray")
+    result = run_bench(tiny_plan(), tmp_path, backend="ray", workers=2, progress=False)
+    assert result.ran == 9
+    assert deterministic(read_records(tmp_path)) == reference
+
+
+def test_killed_cli_run_resumes_to_the_uninterrupted_result(tmp_path: Path) -> None:
+    """SIGKILL a ``bench`` subprocess after some trials are stored, rerun, compare."""
+    args = [
+        sys.executable,
+        "-m",
+        "infoseek.experiments.cli",
+        "bench",
+        "--planner",
+        "test_bench:sleepy_random_policy",
+        "--agents",
+        "2",
+        "--trials",
+        "8",
+        "--steps",
+        "3",
+        "--particles",
+        "100",
+        "--workers",
+        "1",
+        "--no-progress",
+    ]
+    environ = {**os.environ, "PYTHONPATH": str(TESTS_DIR), "INFOSEEK_TEST_SLEEP": "0.08"}
+    killed_dir = tmp_path / "killed"
+    process = subprocess.Popen(
+        [*args, "--out", str(killed_dir)],
+        env=environ,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    trials = killed_dir / store.TRIALS_NAME
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline and process.poll() is None:
+        if trials.exists() and trials.read_bytes().count(b"\n") >= 2:
+            break
+        time.sleep(0.01)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    assert process.returncode == -signal.SIGKILL, process.stderr.read().decode()
+    stored_before = len(read_records(killed_dir))
+    assert 2 <= stored_before < 8
+    environ["INFOSEEK_TEST_SLEEP"] = "0"
+    rerun = subprocess.run(
+        [*args, "--out", str(killed_dir)], env=environ, capture_output=True, text=True
+    )
+    assert rerun.returncode == 0, rerun.stderr
+    assert f"{8 - stored_before} trial(s) run, {stored_before} of 8 already stored" in rerun.stdout
+    fresh_dir = tmp_path / "fresh"
+    fresh = subprocess.run(
+        [*args, "--out", str(fresh_dir)], env=environ, capture_output=True, text=True
+    )
+    assert fresh.returncode == 0, fresh.stderr
+    lines = trials.read_text().splitlines()
+    assert len(lines) == 8 == len({json.loads(line)["key"] for line in lines})
+    assert deterministic(read_records(killed_dir)) == deterministic(read_records(fresh_dir))
+    shutil.rmtree(tmp_path)

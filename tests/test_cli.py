@@ -1,0 +1,174 @@
+"""Smoke and error tests of the ``infoseek`` command (tiny settings)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from infoseek.experiments.cli import main
+from infoseek.experiments.plot import fig1_panels, mass_curves
+from infoseek.experiments.store import MANIFEST_NAME, TRIALS_NAME
+
+BENCH_TINY = ["--agents", "2", "--steps", "3", "--particles", "100", "--workers", "1"]
+
+
+def _snapshot(directory: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted(directory.iterdir())}
+
+
+@pytest.fixture(scope="module")
+def bench_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("bench") / "run"
+    code = main(["bench", "--planner", "random", "--trials", "2", *BENCH_TINY, "--out", str(out)])
+    assert code == 0
+    return out
+
+
+def test_demo_smoke(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["demo", "--steps", "3", "--particles", "200", "--out", str(tmp_path)])
+    assert code == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert sum(line.split()[0] in {"1", "2", "3"} for line in lines if line.strip()) == 3
+    (gif,) = tmp_path.glob("*.gif")
+    with Image.open(gif) as image:
+        assert image.n_frames == 4  # the reset frame and one per step
+    assert len(list(tmp_path.glob("*.png"))) == 1
+
+
+def test_timing_smoke(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["timing", "--repeats", "1", "--only", "env_step_bearings_4"]) == 0
+    assert "env_step_bearings_4" in capsys.readouterr().out
+
+
+def test_bench_smoke_stores_and_summarises(
+    bench_dir: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    manifest = json.loads((bench_dir / MANIFEST_NAME).read_text())
+    assert manifest["config"]["env"] == "bearings_v0"
+    assert manifest["config"]["steps"] == 3
+    assert manifest["config"]["env_kwargs"] == {"n_particles": 100}
+    records = [json.loads(line) for line in (bench_dir / TRIALS_NAME).read_text().splitlines()]
+    assert sorted(r["key"] for r in records) == [
+        "random/agents=2/trial=0",
+        "random/agents=2/trial=1",
+    ]
+    # rerun: nothing to do, the summary is printed from the store
+    before = _snapshot(bench_dir)
+    code = main(
+        ["bench", "--planner", "random", "--trials", "2", *BENCH_TINY, "--out", str(bench_dir)]
+    )
+    assert code == 0
+    out = capsys.readouterr().out
+    assert "0 trial(s) run, 2 of 2 already stored" in out
+    row = next(line for line in out.splitlines() if line.startswith("random"))
+    assert row.split()[1:3] == ["2", "2"]
+    assert _snapshot(bench_dir) == before
+
+
+def test_plot_smoke(bench_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    stem = tmp_path / "figure"
+    assert main(["plot", str(bench_dir), "--out", str(stem)]) == 0
+    with Image.open(stem.with_suffix(".png")) as image:
+        assert image.size[0] > 300 and image.size[1] > 200
+    assert "<svg" in stem.with_suffix(".svg").read_text()[:500]
+    assert "wrote" in capsys.readouterr().out
+
+
+def test_fig1_panels_follow_the_paper() -> None:
+    groups = [("pairwise", 10), ("single", 4), ("pairwise", 2), ("pairwise", 4), ("random", 4)]
+    assert fig1_panels(groups) == [
+        ("a", [("single", 4), ("pairwise", 4)]),
+        ("b", [("pairwise", 2), ("pairwise", 4), ("pairwise", 10)]),
+    ]
+    assert fig1_panels([("single", 4)]) == [("a", [("single", 4)])]
+    assert fig1_panels([("pairwise", 3)]) == [("b", [("pairwise", 3)])]
+    assert fig1_panels([("random", 2), ("lawnmower", 2)]) == [
+        ("all", [("lawnmower", 2), ("random", 2)])
+    ]
+
+
+def test_mass_curves_pad_short_trials() -> None:
+    records = [
+        {"planner": "p", "n_agents": 2, "mass_agent0": [0.0, 0.5, 1.0]},
+        {"planner": "p", "n_agents": 2, "mass_agent0": [0.0, 0.95]},
+    ]
+    np.testing.assert_array_equal(
+        mass_curves(records)["p", 2], [[0.0, 0.5, 1.0], [0.0, 0.95, 0.95]]
+    )
+
+
+def test_reproduce_fig1_smoke(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    args = ["reproduce", "fig1", "--trials", "1", "--steps", "2", "--particles", "100"]
+    assert main([*args, "--workers", "1", "--out", str(tmp_path)]) == 0
+    records = [
+        json.loads(line) for line in (tmp_path / "store" / TRIALS_NAME).read_text().splitlines()
+    ]
+    assert sorted((r["planner"], r["n_agents"]) for r in records) == [
+        ("pairwise", 2),
+        ("pairwise", 3),
+        ("pairwise", 4),
+        ("pairwise", 10),
+        ("single", 4),
+    ]
+    assert (tmp_path / "fig1.png").exists() and (tmp_path / "fig1.svg").exists()
+
+
+def test_reproduce_fig2_smoke(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    args = ["reproduce", "fig2", "--steps", "2", "--particles", "100", "--out", str(tmp_path)]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    psi = float(out.split(" psi ")[1].split()[0])
+    assert abs(psi - np.pi / 4) <= 0.02  # the paper's true orientation
+    assert "t =  1:" in out and "t =  2:" in out
+    with Image.open(tmp_path / "fig2.png") as image:
+        assert image.size[0] > 400
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["bench", "--planner", "nope"], "unknown planner 'nope'"),
+        (["bench", "--trials", "0"], "--trials must be >= 1"),
+        (["bench", "--trials", "-3"], "--trials must be >= 1"),
+        (["bench", "--env", "nope_v9"], "unknown environment 'nope_v9'"),
+        (["bench", "--agents", "0"], "--agents must be >= 1"),
+        (["bench", "--agents", "two"], "expected integers"),
+        (["bench", "--backend", "mpi"], "invalid choice"),
+        (["bench", "--policy", "no-such-model.zip"], "no such file"),
+        (["reproduce", "fig1", "--trials", "0"], "--trials must be >= 1"),
+        (["reproduce", "fig3"], "invalid choice"),
+        (["plot", "/nonexistent/infoseek-results"], "not an infoseek results directory"),
+    ],
+)
+def test_bad_arguments_exit_2_with_a_message(
+    argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    if argv[0] == "bench":
+        argv = [*argv, "--out", str(tmp_path / "never")]
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "never").exists()
+
+
+def test_other_configuration_is_refused_and_untouched(
+    bench_dir: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    before = _snapshot(bench_dir)
+    tiny = [a if a != "3" else "5" for a in BENCH_TINY]  # --steps 5 instead of 3
+    code = main(["bench", "--planner", "random", "--trials", "2", *tiny, "--out", str(bench_dir)])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "holds results of another configuration" in err and "steps: stored 3" in err
+    assert _snapshot(bench_dir) == before
+
+
+def test_plot_without_trials_says_so(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / MANIFEST_NAME).write_text(
+        json.dumps({"format": "infoseek-bench-store", "format_version": 1, "config": {}})
+    )
+    assert main(["plot", str(tmp_path)]) == 2
+    assert "nothing to plot" in capsys.readouterr().err
