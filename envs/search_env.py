@@ -529,7 +529,11 @@ class InformationSeekingEnv(ParallelEnv):
 
         Args:
             seed: Root seed of every random stream (see the module docstring).
-            options: Accepted for API compatibility and ignored.
+            options: ``None`` or a dict with the optional key ``"target"``: a ``(target_dim,)``
+                true target state inside the domain, used instead of a draw from the prior
+                (for reproducing a scenario, e.g. the paper's Fig. 2 beacon at orientation
+                pi/4). The random streams are the same either way. Other keys raise
+                ``ValueError``.
 
         Returns:
             ``(observations, infos)`` keyed by agent.
@@ -543,6 +547,8 @@ class InformationSeekingEnv(ParallelEnv):
         self.agents = list(self.possible_agents)
         self._cycles = 0
         self._target = self.space.sample_uniform(1, self._target_rng)[0]
+        if options:
+            self._target = self._target_from_options(options)
         self._states = np.asarray(
             self.vehicle.initial_states(self.start_positions.copy(), vehicle_rng),
             dtype=np.float64,
@@ -570,6 +576,24 @@ class InformationSeekingEnv(ParallelEnv):
         if self.render_mode == "human":
             self.render()
         return observations, infos
+
+    def _target_from_options(self, options: Mapping[str, Any]) -> NDArray[np.float64]:
+        unknown = sorted(set(options) - {"target"})
+        if unknown:
+            raise ValueError(f"reset options: unknown keys {unknown}; valid keys are ['target']")
+        target = np.asarray(options["target"], dtype=np.float64)
+        if target.shape != (self.space.dim,) or not np.all(np.isfinite(target)):
+            raise ValueError(
+                f"reset options['target'] must be {self.space.dim} finite numbers "
+                f"{self.space.names}, got {options['target']!r}"
+            )
+        target = self.space.wrap(target[None])[0]
+        if not bool(np.all(self.space.contains(target[None]))):
+            raise ValueError(
+                f"reset options['target'] {target.tolist()} lies outside the domain "
+                f"[{self.space.low}, {self.space.high}]"
+            )
+        return target
 
     def step(
         self, actions: Mapping[str, Any]

@@ -56,6 +56,8 @@ class LawnmowerConfig:
         heading_gain: Airplane pursuit gain ``k_heading`` (1/s); ``None`` means ``1 / dt``.
         kp: Quadrotor position gain (1/s^2, > 0).
         kd: Quadrotor velocity damping gain (1/s, >= 0).
+        seed: Accepted so that every policy is built the same way (``from_env(env,
+            seed=...)``); unused, the pattern is deterministic.
     """
 
     sweep_width: float = 4.0
@@ -64,6 +66,7 @@ class LawnmowerConfig:
     heading_gain: float | None = None
     kp: float = 0.3
     kd: float = 1.0
+    seed: int | None = None
 
     def __post_init__(self) -> None:
         for name in ("sweep_width", "capture_radius", "kp"):

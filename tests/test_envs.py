@@ -623,3 +623,19 @@ def test_module_manual_documents_every_configuration_key(env_id: str) -> None:
     manual = getattr(infoseek.envs, env_id).__doc__
     missing = [key for key in InformationSeekingEnv.config_keys() if f"`{key}`" not in manual]
     assert not missing
+
+
+def test_reset_options_place_the_target_and_reject_bad_keys() -> None:
+    env = infoseek.envs.make("beacon_v0", n_agents=2, n_particles=50)
+    env.reset(seed=3, options={"target": [30.0, 20.0, np.pi / 4]})
+    np.testing.assert_allclose(env.unwrapped.true_target(), [30.0, 20.0, np.pi / 4])
+    # The other streams are unchanged: the beliefs are the same as without the option.
+    _, infos_placed = env.reset(seed=3, options={"target": [30.0, 20.0, np.pi / 4]})
+    _, infos_drawn = env.reset(seed=3)
+    assert infos_placed["vehicle_0"]["belief"] == infos_drawn["vehicle_0"]["belief"]
+    with pytest.raises(ValueError, match="unknown keys"):
+        env.reset(options={"targte": [1.0, 1.0, 0.0]})
+    with pytest.raises(ValueError, match="outside the domain"):
+        env.reset(options={"target": [50.0, 1.0, 0.0]})
+    with pytest.raises(ValueError, match="3 finite numbers"):
+        env.reset(options={"target": [1.0, 1.0]})
