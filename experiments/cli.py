@@ -14,6 +14,8 @@ Subcommands:
   (:mod:`infoseek.experiments.plot`).
 * ``infoseek reproduce fig1|fig2``: the trials and plots of the paper's figures with the paper's
   settings (:mod:`infoseek.experiments.reproduce`).
+* ``infoseek train``: train one parameter-shared RL policy (PPO, SAC or TD3) on an environment's
+  entropy-reduction reward (:mod:`infoseek.experiments.train`, needs the ``rl`` extra).
 
 Errors in the arguments or the results directory print ``infoseek COMMAND: error: ...`` on
 stderr and make :func:`main` return 2; nothing already stored is changed.
@@ -31,6 +33,7 @@ from typing import Any
 
 from infoseek.experiments.demo import add_demo_arguments, run_demo
 from infoseek.experiments.timing import add_timing_arguments, run_timing
+from infoseek.experiments.train import add_train_arguments, run_train
 
 #: Exit code of an interrupted (Ctrl-C) run: the stored trials are kept, a rerun resumes.
 EXIT_INTERRUPTED = 130
@@ -334,6 +337,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_reproduce_arguments(reproduce)
     reproduce.set_defaults(handler=run_reproduce_command)
+    train = sub.add_parser(
+        "train", help="train a parameter-shared RL policy (PPO/SAC/TD3) on the entropy reward"
+    )
+    add_train_arguments(train)
+    train.set_defaults(handler=run_train)
     return parser
 
 

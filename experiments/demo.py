@@ -23,7 +23,9 @@ from infoseek.experiments.policies import PLANNER_NAMES, make_policy
 
 def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``infoseek demo``."""
-    parser.add_argument("--env", default="bearings_v0", choices=sorted(registry), help="environment id")
+    parser.add_argument(
+        "--env", default="bearings_v0", choices=sorted(registry), help="environment id"
+    )
     parser.add_argument(
         "--planner", default="pairwise", choices=PLANNER_NAMES, help="scripted planner to run"
     )
@@ -31,7 +33,9 @@ def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--particles", type=int, default=2000, help="particles per vehicle belief")
     parser.add_argument("--steps", type=int, default=None, help="episode length (env default)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the episode and the planner")
-    parser.add_argument("--out", type=Path, default=None, help="output folder (default infoseek-out/)")
+    parser.add_argument(
+        "--out", type=Path, default=None, help="output folder (default infoseek-out/)"
+    )
     parser.add_argument("--fps", type=float, default=4.0, help="frames per second of the GIF")
 
 
@@ -55,8 +59,11 @@ def run_demo(args: argparse.Namespace) -> int:
     truth = env.unwrapped.true_target()
     radius = env.unwrapped.localization_radius
     first = env.possible_agents[0]
-    print(f"{args.env}: {args.agents} x {args.planner}, {args.particles} particles, seed {args.seed}")
-    print(f"{'step':>4} {'mass<=' + format(radius, 'g'):>9} {'error':>8} {'entropy':>8} {'plan ms':>8}")
+    print(
+        f"{args.env}: {args.agents} x {args.planner}, {args.particles} particles, seed {args.seed}"
+    )
+    mass_header = f"mass<={radius:g}"
+    print(f"{'step':>4} {mass_header:>9} {'error':>8} {'entropy':>8} {'plan ms':>8}")
     step = 0
     while env.agents:
         start = time.perf_counter()

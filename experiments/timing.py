@@ -161,8 +161,10 @@ def run_timing(args: argparse.Namespace) -> int:
         results["env_step_beacon_4"] = _env_step_times("beacon_v0", args.repeats)
 
     machine = machine_description()
-    print(f"machine: {machine['cpu']}, {machine['logical_cores']} logical cores, "
-          f"Python {machine['python']}, NumPy {machine['numpy']}")
+    print(
+        f"machine: {machine['cpu']}, {machine['logical_cores']} logical cores, "
+        f"Python {machine['python']}, NumPy {machine['numpy']}"
+    )
     print(f"{'benchmark':<22} {'median ms':>10} {'q25 ms':>9} {'q75 ms':>9} {'calls':>6}")
     rows = {}
     for name in BENCHMARKS:
