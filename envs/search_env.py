@@ -57,6 +57,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -532,8 +533,8 @@ class InformationSeekingEnv(ParallelEnv):
             options: ``None`` or a dict with the optional key ``"target"``: a ``(target_dim,)``
                 true target state inside the domain, used instead of a draw from the prior
                 (for reproducing a scenario, e.g. the paper's Fig. 2 beacon at orientation
-                pi/4). The random streams are the same either way. Other keys raise
-                ``ValueError``.
+                pi/4). The random streams are the same either way. Other keys are ignored
+                with a ``UserWarning``.
 
         Returns:
             ``(observations, infos)`` keyed by agent.
@@ -580,7 +581,13 @@ class InformationSeekingEnv(ParallelEnv):
     def _target_from_options(self, options: Mapping[str, Any]) -> NDArray[np.float64]:
         unknown = sorted(set(options) - {"target"})
         if unknown:
-            raise ValueError(f"reset options: unknown keys {unknown}; valid keys are ['target']")
+            # PettingZoo's API tests pass arbitrary options; ignore them, but not silently.
+            warnings.warn(
+                f"reset options: ignoring unknown keys {unknown}; valid keys are ['target']",
+                stacklevel=3,
+            )
+        if "target" not in options:
+            return self._target
         target = np.asarray(options["target"], dtype=np.float64)
         if target.shape != (self.space.dim,) or not np.all(np.isfinite(target)):
             raise ValueError(
