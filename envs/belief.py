@@ -27,13 +27,46 @@ One filter cycle (:meth:`ParticleBelief.predict`, :meth:`~ParticleBelief.update`
    is separated again.
    Positions are reflected back into the box, angles wrapped.
 
-Degeneracy recovery: if ``log E`` is not finite or below ``-700`` (every weight would underflow
-in float64; the observations are impossible under every particle), a fraction
+Progressive correction (tempering; Oudjane & Musso 2000). Near an avalanche beacon the
+likelihood is extremely sharp (angular std ``~ r^3 noise_std / moment``), far narrower than the
+particle spacing: a one-shot update then leaves one or two particles with all the weight, or
+none within thousands of standard deviations of the likelihood peak. Write
+``L_k = sum_j log p(z^{(j)} | theta_k)`` for the batch log-likelihood and ``1 = lambda_1 + ... +
+lambda_S`` for a split of the exponent. Since
+``prod_s p(z | theta)^{lambda_s} = p(z | theta)^{sum_s lambda_s} = p(z | theta)``,
+the posterior can be reached through the intermediate targets
+``pi_s(theta) ~ p(theta | past) p(z | theta)^{lambda_1 + ... + lambda_s}``. Stage ``s``
+reweights by ``exp(lambda_s L_k)`` only, resamples (systematic) and moves the particles with
+``TEMPERING_MOVE_SWEEPS`` Metropolis sweeps: Gaussian proposals of ``TEMPERING_MOVE_SCALE`` times
+the *current* per-coordinate std of the particles (so the steps shrink as they concentrate),
+each sweep ``TEMPERING_MOVE_SHRINK`` times smaller, accepted with probability
+``min(1, exp(Lambda_s (L(proposal) - L(particle))))``, ``Lambda_s = lambda_1 + ... + lambda_s``.
+The prior density is treated as locally flat (it is only known through its particles); for a
+uniform prior this is an exact Metropolis kernel for ``pi_s``. A plain Gordon jitter (scale
+``~ range * N^(-1/d)``) was tried first: it is far too small to carry the particles to a peak
+thousands of its own widths away, and too large (range of a multi-modal set) to keep them on
+a thin likelihood ridge. ``L_k`` of accepted proposals is reused in the next stage.
+``lambda_s in (0, remaining]`` is chosen by
+bisection (on ``log lambda``) so that the ESS after the partial reweighting equals
+``tempering_ess`` times the ESS before it (``tempering_ess * N`` for the uniform weights that
+resampling leaves); when applying all the remaining exponent keeps the ESS above that floor, or
+at stage ``max_tempering_stages``, the remainder is applied and the weights are kept (the normal
+resampling step follows). A mild update therefore takes one stage and is exactly the plain
+Bayes update. The log evidence is accumulated over stages,
+``log E = sum_s log sum_k w^{(s)}_k exp(lambda_s L^{(s)}_k)``, the usual sequential Monte Carlo
+estimate of ``log p(z_{1..M} | past)``. Tempering is disabled by ``tempering_ess = 0`` and, as
+it resamples, also by ``resample_threshold = 0`` (never resample: pure importance weighting).
+
+Degeneracy recovery: if the (tempered) ``log E`` is not finite or below ``-700`` (every weight
+would underflow in float64 in a one-shot update; the observations are impossible under every
+particle even after the particles were moved towards them by tempering), a fraction
 ``recovery_fraction`` of the particles is replaced by fresh samples of the uniform prior ``p_0``,
 the remaining particles are drawn (systematically) from the pre-update weights, all weights are
-set uniform and this step's likelihood is reapplied. If the update is still degenerate the
-observations are dropped and the pre-update particles and weights are kept. Either way the
-returned :class:`BeliefUpdate` has ``recovered=True``; no NaN is ever produced.
+set uniform and this step's likelihood is reapplied (tempered again). If the update is still
+degenerate the observations are dropped and the pre-update particles and weights are kept.
+Either way the returned :class:`BeliefUpdate` has ``recovered=True``; no NaN is ever produced.
+The threshold is applied to the tempered evidence of the whole observation batch, so a sharp
+but consistent observation (which tempering follows to its peak) does not trigger recovery.
 
 Estimates:
 
@@ -72,6 +105,10 @@ FloatArray = NDArray[np.float64]
 
 __all__ = [
     "DEGENERATE_LOG_EVIDENCE",
+    "TEMPERING_BISECTION_STEPS",
+    "TEMPERING_MOVE_SCALE",
+    "TEMPERING_MOVE_SHRINK",
+    "TEMPERING_MOVE_SWEEPS",
     "SPREAD_FLOOR",
     "BeliefUpdate",
     "BeliefView",
@@ -83,6 +120,19 @@ DEGENERATE_LOG_EVIDENCE = -700.0
 
 #: Roughening spread floor, as a fraction of each coordinate's domain width.
 SPREAD_FLOOR = 1e-3
+
+#: Bisection steps for a tempering exponent (on ``log lambda`` over 60 nats below the remainder).
+TEMPERING_BISECTION_STEPS = 40
+
+#: Metropolis sweeps of the tempering move: the first proposes Gaussian steps of
+#: ``TEMPERING_MOVE_SCALE`` times the particles' per-coordinate std, each next one
+#: ``TEMPERING_MOVE_SHRINK`` times smaller.
+TEMPERING_MOVE_SWEEPS = 5
+TEMPERING_MOVE_SCALE = 1.0
+TEMPERING_MOVE_SHRINK = 0.3
+
+#: Smallest tempering exponent tried, relative to the remaining exponent (``exp(-60)``).
+_LOG_MIN_LAMBDA = -60.0
 
 
 def _readonly(arr: np.ndarray) -> np.ndarray:
@@ -98,6 +148,11 @@ def _logsumexp(values: FloatArray) -> float:
     return peak + math.log(float(np.sum(np.exp(values - peak))))
 
 
+def _log_ess(log_weights: FloatArray) -> float:
+    """``log ESS`` of unnormalised log-weights: ``2 logsumexp(lw) - logsumexp(2 lw)``."""
+    return 2.0 * _logsumexp(log_weights) - _logsumexp(2.0 * log_weights)
+
+
 @dataclass(frozen=True)
 class BeliefUpdate:
     """Outcome of :meth:`ParticleBelief.update`.
@@ -105,16 +160,21 @@ class BeliefUpdate:
     Attributes:
         recovered: Whether the degeneracy recovery ran (observations impossible under every
             particle).
-        log_evidence: ``logsumexp_k(log w_k + sum_j log p(z_j | theta_k))`` of the attempted
-            update under the pre-update belief (may be ``-inf`` when ``recovered``; 0.0 for no
-            observations).
+        log_evidence: Estimate of ``log p(z_1..M | past)`` under the pre-update belief: the
+            one-shot ``logsumexp_k(log w_k + sum_j log p(z_j | theta_k))``, or its sum over the
+            tempering stages (module docstring). May be ``-inf`` when ``recovered``; 0.0 for no
+            observations.
         n_observations: Number ``M`` of observations incorporated (0 when they were dropped
             because even the recovered particle set could not explain them).
+        n_stages: Number of progressive-correction (tempering) stages of the update that was
+            kept: 1 for a plain one-shot update, up to ``max_tempering_stages``; 0 when there
+            were no observations or they were dropped.
     """
 
     recovered: bool
     log_evidence: float
     n_observations: int
+    n_stages: int = 1
 
 
 @dataclass(frozen=True)
@@ -176,6 +236,11 @@ class ParticleBelief:
             coordinate and 16 per angle coordinate.
         recovery_fraction: Fraction of particles replaced by prior samples on degeneracy, in
             ``(0, 1]``.
+        tempering_ess: Progressive-correction floor in ``[0, 1)``: an update that would make the
+            ESS fall below ``tempering_ess`` times its pre-update value is applied in stages
+            (module docstring). 0 disables tempering (as does ``resample_threshold = 0``).
+        max_tempering_stages: Maximum number of tempering stages (>= 1; the last one applies
+            whatever exponent remains).
     """
 
     def __init__(
@@ -190,6 +255,8 @@ class ParticleBelief:
         roughening: float = 0.2,
         entropy_bins: tuple[int, ...] | None = None,
         recovery_fraction: float = 0.5,
+        tempering_ess: float = 0.1,
+        max_tempering_stages: int = 20,
     ) -> None:
         if not isinstance(space, TargetSpace):
             raise TypeError(f"space must be a TargetSpace, got {type(space).__name__}")
@@ -225,6 +292,19 @@ class ParticleBelief:
             raise ValueError(f"roughening must be a finite float >= 0, got {roughening!r}")
         if not (np.isfinite(recovery_fraction) and 0.0 < recovery_fraction <= 1.0):
             raise ValueError(f"recovery_fraction must be in (0, 1], got {recovery_fraction!r}")
+        if isinstance(tempering_ess, bool) or not (
+            isinstance(tempering_ess, int | float | np.integer | np.floating)
+            and 0.0 <= tempering_ess < 1.0
+        ):
+            raise ValueError(f"tempering_ess must be a float in [0, 1), got {tempering_ess!r}")
+        if (
+            isinstance(max_tempering_stages, bool)
+            or not isinstance(max_tempering_stages, int | np.integer)
+            or max_tempering_stages < 1
+        ):
+            raise ValueError(
+                f"max_tempering_stages must be an integer >= 1, got {max_tempering_stages!r}"
+            )
         if entropy_bins is None:
             bins = tuple(16 if per else 40 for per in space.periodic)
         else:
@@ -243,6 +323,8 @@ class ParticleBelief:
         self._resample_threshold = float(resample_threshold)
         self._roughening = float(roughening)
         self._recovery_fraction = float(recovery_fraction)
+        self._tempering_ess = float(tempering_ess)
+        self._max_tempering_stages = int(max_tempering_stages)
         self._entropy_bins = bins
         self._particles = space.wrap(p)
         self._set_log_weights(lw)
@@ -422,13 +504,18 @@ class ParticleBelief:
             return BeliefUpdate(recovered=False, log_evidence=0.0, n_observations=0)
 
         loglik = self._total_log_likelihood(sensor, z_arr, poses_arr, self._particles)
-        log_post = self._log_weights + loglik
-        log_evidence = _logsumexp(log_post)
+        particles, log_weights, log_evidence, stages = self._tempered_update(
+            sensor, z_arr, poses_arr, self._particles, self._log_weights, loglik
+        )
         if np.isfinite(log_evidence) and log_evidence >= DEGENERATE_LOG_EVIDENCE:
-            self._set_log_weights(log_post - log_evidence)
-            return BeliefUpdate(recovered=False, log_evidence=log_evidence, n_observations=m)
+            self._particles = particles
+            self._set_log_weights(log_weights)
+            return BeliefUpdate(
+                recovered=False, log_evidence=log_evidence, n_observations=m, n_stages=stages
+            )
 
-        # Degenerate: mix fresh prior samples with survivors of the pre-update belief.
+        # Degenerate even after tempering: mix fresh prior samples with survivors of the
+        # pre-update belief, then reapply the likelihood (tempered again).
         n = self.n_particles
         n_fresh = min(n, max(1, math.ceil(self._recovery_fraction * n)))
         survivors = systematic_resample(self._weights, self._rng, n - n_fresh)
@@ -436,14 +523,123 @@ class ParticleBelief:
             [self._particles[survivors], self._space.sample_uniform(n_fresh, self._rng)]
         )
         loglik = self._total_log_likelihood(sensor, z_arr, poses_arr, candidate)
-        log_post = loglik - math.log(n)
-        retry_evidence = _logsumexp(log_post)
+        particles, log_weights, retry_evidence, stages = self._tempered_update(
+            sensor, z_arr, poses_arr, candidate, np.full(n, -math.log(n)), loglik
+        )
         if np.isfinite(retry_evidence) and retry_evidence >= DEGENERATE_LOG_EVIDENCE:
-            self._particles = candidate
-            self._set_log_weights(log_post - retry_evidence)
-            return BeliefUpdate(recovered=True, log_evidence=log_evidence, n_observations=m)
+            self._particles = particles
+            self._set_log_weights(log_weights)
+            return BeliefUpdate(
+                recovered=True, log_evidence=log_evidence, n_observations=m, n_stages=stages
+            )
         # Still impossible: drop the observations and keep the pre-update belief.
-        return BeliefUpdate(recovered=True, log_evidence=log_evidence, n_observations=0)
+        return BeliefUpdate(recovered=True, log_evidence=log_evidence, n_observations=0, n_stages=0)
+
+    def _tempered_update(
+        self,
+        sensor: Any,
+        z: FloatArray,
+        poses: FloatArray,
+        particles: FloatArray,
+        log_weights: FloatArray,
+        loglik: FloatArray,
+    ) -> tuple[FloatArray, FloatArray, float, int]:
+        """Bayes update by progressive correction (module docstring); does not modify ``self``.
+
+        Args:
+            sensor: The sensor (to recompute the likelihood after each move).
+            z: ``(M, obs_dim)`` observations.
+            poses: ``(M, pose_dim)`` sensor poses.
+            particles: ``(N, d)`` pre-update particles.
+            log_weights: ``(N,)`` normalised pre-update log-weights.
+            loglik: ``(N,)`` batch log-likelihood ``L`` of ``particles``.
+
+        Returns:
+            ``(particles (N, d), normalised log-weights (N,), log evidence, stages)``; the
+            log evidence is ``-inf`` (and the arrays meaningless) when some stage had no
+            particle of non-zero likelihood.
+        """
+        n = particles.shape[0]
+        tempering = self._tempering_ess > 0.0 and self._resample_threshold > 0.0 and n > 1
+        remaining = 1.0
+        log_evidence = 0.0
+        stage = 0
+        while True:
+            stage += 1
+            full = log_weights + remaining * loglik
+            log_z = _logsumexp(full)
+            if not np.isfinite(log_z):
+                return particles, log_weights, -math.inf, stage
+            log_floor = math.log(self._tempering_ess) + _log_ess(log_weights) if tempering else 0.0
+            if not tempering or stage >= self._max_tempering_stages or _log_ess(full) >= log_floor:
+                return particles, full - log_z, log_evidence + log_z, stage
+            lam = self._tempering_exponent(log_weights, loglik, remaining, log_floor)
+            partial = log_weights + lam * loglik
+            log_z = _logsumexp(partial)
+            log_evidence += log_z
+            idx = systematic_resample(np.exp(partial - log_z), self._rng)
+            particles, loglik = particles[idx], loglik[idx]
+            remaining -= lam
+            if self._roughening > 0.0:
+                particles, loglik = self._tempered_move(
+                    sensor, z, poses, particles, loglik, 1.0 - remaining
+                )
+            log_weights = np.full(n, -math.log(n))
+
+    def _tempered_move(
+        self,
+        sensor: Any,
+        z: FloatArray,
+        poses: FloatArray,
+        particles: FloatArray,
+        loglik: FloatArray,
+        exponent: float,
+    ) -> tuple[FloatArray, FloatArray]:
+        """Likelihood-guarded multi-scale roughening of resampled particles (module docstring).
+
+        ``TEMPERING_MOVE_SWEEPS`` Metropolis sweeps; sweep ``s`` proposes the Gordon jitter
+        scaled by ``TEMPERING_MOVE_SHRINK**s`` and accepts with probability
+        ``min(1, exp(exponent * (L(proposal) - L(particle))))``.
+
+        Returns:
+            ``(particles (N, d), loglik (N,))`` after the sweeps.
+        """
+        particles = particles.copy()
+        loglik = loglik.copy()
+        scale = TEMPERING_MOVE_SCALE
+        for _ in range(TEMPERING_MOVE_SWEEPS):
+            proposal = self._roughen(particles, move_scale=scale)
+            proposal_loglik = self._total_log_likelihood(sensor, z, poses, proposal)
+            log_u = np.log(self._rng.random(particles.shape[0]))
+            with np.errstate(invalid="ignore"):  # -inf - -inf cannot occur: loglik is finite
+                accept = log_u < exponent * (proposal_loglik - loglik)
+            particles[accept] = proposal[accept]
+            loglik[accept] = proposal_loglik[accept]
+            scale *= TEMPERING_MOVE_SHRINK
+        return particles, loglik
+
+    @staticmethod
+    def _tempering_exponent(
+        log_weights: FloatArray, loglik: FloatArray, remaining: float, log_floor: float
+    ) -> float:
+        """Largest ``lambda`` in ``(0, remaining]`` with ``log ESS(lw + lambda L) >= log_floor``.
+
+        Bisection on ``log lambda`` over ``[log remaining - 60, log remaining]``; if even the
+        smallest exponent leaves the ESS below the floor (e.g. particles of zero likelihood),
+        that smallest exponent is returned.
+        """
+        # Only finite-likelihood particles keep weight for lambda > 0; -inf * 0 must not occur.
+        hi = math.log(remaining)
+        lo = hi + _LOG_MIN_LAMBDA
+        if _log_ess(log_weights + math.exp(lo) * loglik) < log_floor:
+            return math.exp(lo)
+        for _ in range(TEMPERING_BISECTION_STEPS):
+            mid = 0.5 * (lo + hi)
+            if _log_ess(log_weights + math.exp(mid) * loglik) >= log_floor:
+                lo = mid
+            else:
+                hi = mid
+        return math.exp(lo)
 
     def resample_if_needed(self) -> bool:
         """Systematic resampling plus roughening when ``ESS < resample_threshold * N``.
@@ -466,21 +662,36 @@ class ParticleBelief:
         self._set_log_weights(np.full(n, -math.log(n)))
         return True
 
-    def _roughen(self, particles: FloatArray) -> FloatArray:
-        """Gordon roughening of equally weighted ``(N, d)`` particles (see module docstring)."""
+    def _roughen(self, particles: FloatArray, move_scale: float | None = None) -> FloatArray:
+        """Gordon roughening of equally weighted ``(N, d)`` particles (see module docstring).
+
+        With ``move_scale`` the jitter is instead a tempering-move proposal: per-coordinate std
+        ``move_scale`` times the particles' standard deviation (angles: of the residuals about
+        the circular/axial mean).
+        """
         space = self._space
         n, d = particles.shape
         columns = np.ascontiguousarray(particles.T)  # (d, N): fast per-coordinate reductions
-        spread = columns.max(axis=1) - columns.min(axis=1)
         idx, low, period, harmonic = _angle_scale(space)
+        if move_scale is None:
+            spread = columns.max(axis=1) - columns.min(axis=1)
+        else:
+            spread = columns.std(axis=1)
         if idx.size:
             center = self._angle_means(particles[:, idx], np.full(n, 1.0 / n))
             half = period / (2.0 * harmonic)  # residuals live in [-half, half)
             resid = np.mod(columns[idx] - center[:, None] + half[:, None], 2.0 * half[:, None])
-            spread[idx] = resid.max(axis=1) - resid.min(axis=1)
-        # floor: a fully collapsed set (spread 0) would otherwise never be separated again
-        spread = np.maximum(spread, SPREAD_FLOOR * (space.high_array - space.low_array))
-        std = self._roughening * spread * n ** (-1.0 / d)
+            if move_scale is None:
+                spread[idx] = resid.max(axis=1) - resid.min(axis=1)
+            else:
+                spread[idx] = resid.std(axis=1)
+        width = space.high_array - space.low_array
+        if move_scale is None:
+            # floor: a fully collapsed set (spread 0) would otherwise never be separated again
+            spread = np.maximum(spread, SPREAD_FLOOR * width)
+            std = self._roughening * spread * n ** (-1.0 / d)
+        else:
+            std = move_scale * np.maximum(spread, 1e-12 * width)
         jittered = columns + std[:, None] * self._rng.standard_normal((n, d)).T
         low_all, high_all = space.low_array, space.high_array
         for j in np.flatnonzero(~space.periodic_mask):  # loop over coordinates, not particles

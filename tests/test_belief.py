@@ -211,9 +211,16 @@ def test_impossible_observation_is_dropped_without_nan() -> None:
 def test_recovery_reseeds_from_prior() -> None:
     rng = np.random.default_rng(2)
     particles = rng.uniform(0.0, 1.0, (1000, 2))  # everything in a corner
-    belief = ParticleBelief(particles, PLANAR, rng, recovery_fraction=0.5)
+    # a genuine outlier is still recovered from when tempering is on (the tempered evidence of
+    # the corner particles stays far below -700)
+    tempered = ParticleBelief(particles, PLANAR, np.random.default_rng(2), recovery_fraction=0.5)
     sensor = GaussianPositionSensor(0.7)
     z = np.array([[30.0, 30.0]])
+    upd = tempered.update(sensor, z, np.zeros((1, 2)))
+    assert upd.recovered and upd.n_observations == 1 and upd.log_evidence < -700
+    assert np.linalg.norm(tempered.mmse() - z[0]) < 1.5
+    # without tempering the recovered set keeps the survivors unmoved
+    belief = ParticleBelief(particles, PLANAR, rng, recovery_fraction=0.5, tempering_ess=0.0)
     upd = belief.update(sensor, z, np.zeros((1, 2)))
     assert upd.recovered and upd.n_observations == 1
     assert upd.log_evidence < -700
@@ -546,3 +553,112 @@ def test_bad_update_and_estimate_inputs() -> None:
         belief.mass_within(1.0, np.zeros(5))
     with pytest.raises(ValueError, match="shape"):
         belief.mass_grid((0, 3))
+
+
+# --------------------------------------------------------------------------- tempering
+def _sharp_case(seed: int, **kwargs) -> tuple[ParticleBelief, BeliefUpdate, np.ndarray]:
+    """2000 particles spread +-1 around the truth; one Gaussian position fix of std 3e-4.
+
+    The nearest of the particles is ~0.02 (about 70 std) away, so a one-shot update has log
+    evidence far below -700.
+    """
+    rng = np.random.default_rng(seed)
+    truth = np.array([20.0, 20.0])
+    belief = ParticleBelief(truth + rng.uniform(-1.0, 1.0, (2000, 2)), PLANAR, rng, **kwargs)
+    z = truth[None, :] + 1e-4
+    upd = belief.update(GaussianPositionSensor(3e-4), z, np.zeros((1, 2)))
+    return belief, upd, z[0]
+
+
+@pytest.mark.parametrize("seed", range(1, 5))
+def test_tempering_follows_a_sharp_consistent_observation(seed: int) -> None:
+    plain, plain_upd, _ = _sharp_case(seed, tempering_ess=0.0)
+    assert plain_upd.recovered and plain_upd.log_evidence < -700  # the failure being fixed
+    belief, upd, z = _sharp_case(seed)
+    assert not upd.recovered and upd.n_observations == 1 and upd.n_stages > 1
+    # exact log evidence: the fix lies inside the uniform +-1 prior box -> log(1/4)
+    assert abs(upd.log_evidence - np.log(0.25)) < 1.5
+    assert np.all(np.isfinite(belief.log_weights)) and not np.any(np.isnan(belief.particles))
+    belief.resample_if_needed()
+    assert np.linalg.norm(belief.mmse() - z) < 3e-4
+    assert belief.mass_within(1.5e-3, z) > 0.95  # 5 std
+    spread = belief.particles.std(axis=0)
+    assert np.all((spread > 1.5e-4) & (spread < 6e-4))  # posterior std 3e-4 (+ roughening)
+
+
+def test_tempered_posterior_agrees_with_grid_posterior() -> None:
+    """Uniform prior on the box, sharp fix + bearing: tempered particles vs a fine grid."""
+    gauss = GaussianPositionSensor(0.25)
+    bearing = BearingLikeSensor(0.02)
+    z_g = np.array([[12.3, 25.1]])
+    pose = np.array([[0.0, 0.0]])
+    z_b = np.array([[np.arctan2(25.0, 12.5)]])
+    c = 11.0 + (np.arange(800) + 0.5) * 3.0 / 800
+    d = 24.0 + (np.arange(800) + 0.5) * 3.0 / 800
+    fine = np.stack(np.meshgrid(c, d, indexing="ij"), axis=-1).reshape(-1, 2)
+    logp = gauss.log_likelihood(z_g, pose, fine)[0] + bearing.log_likelihood(z_b, pose, fine)[0]
+    post = np.exp(logp - logp.max())
+    post /= post.sum()
+    mean = post @ fine
+    sd = np.sqrt(post @ (fine - mean) ** 2)
+
+    means, sds = [], []
+    for seed in range(4):
+        belief = ParticleBelief.from_prior(PLANAR, 4000, np.random.default_rng(seed))
+        upd = belief.update(gauss, z_g, pose)
+        assert upd.n_stages > 1 and not upd.recovered
+        upd = belief.update(bearing, z_b, pose)
+        assert not upd.recovered
+        belief.resample_if_needed()
+        means.append(belief.mmse())
+        sds.append(belief.particles.std(axis=0))
+    # no noticeable bias: every run's mean within 0.15 posterior std, spread within 20 %
+    assert np.all(np.abs(np.array(means) - mean) < 0.15 * sd), (means, mean, sd)
+    np.testing.assert_allclose(np.mean(sds, axis=0), sd, rtol=0.2)
+
+
+def test_tempering_is_deterministic_under_a_seed() -> None:
+    a, upd_a, _ = _sharp_case(3)
+    b, upd_b, _ = _sharp_case(3)
+    c, _, _ = _sharp_case(4)
+    assert upd_a == upd_b
+    np.testing.assert_array_equal(a.particles, b.particles)
+    np.testing.assert_array_equal(a.log_weights, b.log_weights)
+    assert not np.array_equal(a.particles, c.particles)
+
+
+@pytest.mark.parametrize(
+    "kwargs", [{"tempering_ess": 0.0}, {"resample_threshold": 0.0}, {"max_tempering_stages": 1}]
+)
+def test_disabled_tempering_is_the_plain_bayes_update(kwargs) -> None:
+    rng = np.random.default_rng(6)
+    particles = PLANAR.sample_uniform(3000, rng)
+    belief = ParticleBelief(particles, PLANAR, rng, **kwargs)
+    sensor = GaussianPositionSensor(0.5)
+    z = np.array([[12.0, 30.0], [12.5, 29.0]])
+    loglik = sensor.log_likelihood(z, np.zeros((2, 2)), particles).sum(0)
+    expected = loglik - np.log(np.sum(np.exp(loglik - loglik.max()))) - loglik.max()
+    upd = belief.update(sensor, z, np.zeros((2, 2)))
+    assert upd.n_stages == 1 and not upd.recovered
+    assert belief.ess < 0.1 * 3000  # tempering would have triggered
+    np.testing.assert_array_equal(belief.particles, particles)
+    np.testing.assert_allclose(belief.log_weights, expected, rtol=1e-12, atol=1e-9)
+    assert upd.log_evidence == pytest.approx(np.log(np.mean(np.exp(loglik))), rel=1e-9)
+
+
+def test_mild_update_takes_one_stage() -> None:
+    belief = ParticleBelief.from_prior(PLANAR, 2000, np.random.default_rng(0))
+    before = belief.particles.copy()
+    upd = belief.update(GaussianPositionSensor(15.0), np.array([[20.0, 20.0]]), np.zeros((1, 2)))
+    assert upd.n_stages == 1
+    np.testing.assert_array_equal(belief.particles, before)
+
+
+def test_bad_tempering_arguments() -> None:
+    good = PLANAR.sample_uniform(10, np.random.default_rng(0))
+    for bad in (-0.1, 1.0, np.nan, True):
+        with pytest.raises(ValueError, match="tempering_ess"):
+            ParticleBelief(good, PLANAR, np.random.default_rng(0), tempering_ess=bad)
+    for bad in (0, 2.5, True):
+        with pytest.raises(ValueError, match="max_tempering_stages"):
+            ParticleBelief(good, PLANAR, np.random.default_rng(0), max_tempering_stages=bad)
