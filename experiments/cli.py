@@ -24,13 +24,13 @@ stderr and make :func:`main` return 2; nothing already stored is changed.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from infoseek.experiments.arguments import add_environment_overrides
 from infoseek.experiments.demo import add_demo_arguments, run_demo
 from infoseek.experiments.timing import add_timing_arguments, run_timing
 from infoseek.experiments.train import add_train_arguments, run_train
@@ -47,17 +47,6 @@ def _int_list(text: str) -> list[int]:
         raise argparse.ArgumentTypeError(
             f"expected integers like 4 or 2,3,4, got {text!r}"
         ) from None
-
-
-def _key_value(text: str) -> tuple[str, Any]:
-    """``KEY=VALUE`` with VALUE parsed as JSON when possible (argparse type)."""
-    key, sep, value = text.partition("=")
-    if not sep or not key:
-        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
-    try:
-        return key, json.loads(value)
-    except ValueError:
-        return key, value
 
 
 def _default_workers() -> int:
@@ -111,17 +100,7 @@ def add_bench_arguments(parser: argparse.ArgumentParser) -> None:
         "--steps", type=int, default=None, help="steps per trial (default: env's max_cycles)"
     )
     parser.add_argument("--seed", type=int, default=0, help="root seed of the run")
-    parser.add_argument(
-        "--particles", type=int, default=None, help="particles per belief (default: env's)"
-    )
-    parser.add_argument(
-        "--env-kwarg",
-        type=_key_value,
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="extra environment keyword (VALUE parsed as JSON), repeatable",
-    )
+    add_environment_overrides(parser)
     parser.add_argument(
         "--out",
         type=Path,

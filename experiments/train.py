@@ -23,28 +23,16 @@ Requires the optional RL dependencies (``pip install 'infoseek[rl]'``).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
-from typing import Any
 
 from infoseek.envs import registry
+from infoseek.experiments.arguments import add_environment_overrides, key_value
 
 __all__ = ["add_train_arguments", "run_train"]
 
 #: Exit code of an interrupted (Ctrl-C) run (the checkpoints are kept; a rerun resumes).
 EXIT_INTERRUPTED = 130
-
-
-def _key_value(text: str) -> tuple[str, Any]:
-    """``KEY=VALUE`` with VALUE parsed as JSON when possible (argparse type)."""
-    key, sep, value = text.partition("=")
-    if not sep or not key:
-        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
-    try:
-        return key, json.loads(value)
-    except ValueError:
-        return key, value
 
 
 def add_train_arguments(parser: argparse.ArgumentParser) -> None:
@@ -79,20 +67,10 @@ def add_train_arguments(parser: argparse.ArgumentParser) -> None:
         default="continuous",
         help="action space (sac/td3: continuous only)",
     )
-    parser.add_argument(
-        "--particles", type=int, default=None, help="particles per belief (default: env's)"
-    )
-    parser.add_argument(
-        "--env-kwarg",
-        type=_key_value,
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="extra environment keyword (VALUE parsed as JSON), repeatable",
-    )
+    add_environment_overrides(parser)
     parser.add_argument(
         "--hyper",
-        type=_key_value,
+        type=key_value,
         action="append",
         default=[],
         metavar="KEY=VALUE",
