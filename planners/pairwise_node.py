@@ -17,8 +17,10 @@ Cost control: the single terms are computed once per step (one batched call per 
 pair terms :math:`I(z^{(i)}_c, z^{(j)}; \theta)` for all of vehicle ``i``'s candidates ``c`` are
 a column per partner plan; columns are cached by ``(i, j, plan of j)`` and only the columns
 of partners whose plan changed are computed, in one batched
-:func:`~infoseek.planners.information.pairwise_mutual_information` call per vehicle and
-iteration. The initial exchange is every vehicle's single-node argmax.
+:class:`~infoseek.planners.information.PairwiseMIEvaluator` call per vehicle and iteration
+(one evaluator per vehicle and step: the per-pose predictions and windowed stencils of the
+candidates and partner plans are cached across sweeps and the refinement). The initial
+exchange is every vehicle's single-node argmax.
 
 Needs ``n_v >= 2``: building it for a one-vehicle environment raises ``ValueError``.
 """
