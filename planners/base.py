@@ -654,10 +654,13 @@ class InformationPlanner(Planner):
         The utility is sampled on a local tensor grid over the cell (``refine_evaluations + 1``
         nodes for a one-dimensional control, 5 per axis otherwise; the grid choice is always
         a node) in **one** batched utility call, and interpolated with a cubic spline
-        (``scipy.interpolate``). :func:`~infoseek.planners.coordination.refine_control` then
-        runs its bounded scipy search on ``-spline(u) + penalty(u) / beta``, with the separation
-        penalty evaluated exactly. The interpolant is exact at the nodes, so the refined control
-        is never worse than the grid choice on the sampled utility.
+        (``scipy.interpolate``), and so are the vehicle's predicted tracks over the safety
+        horizon (smooth functions of the control, computed exactly at the same nodes).
+        :func:`~infoseek.planners.coordination.refine_control` then runs its bounded scipy
+        search on ``-spline(u) + penalty(track_spline(u)) / beta``, so no scipy evaluation
+        steps the vehicle model. Both interpolants are exact at the nodes, so the refined control
+        is never worse than the grid choice on the sampled utility; the returned control's
+        track is recomputed exactly.
         """
         low, high = self.model.control_low, self.model.control_high
         k = self.candidates.shape[0]
@@ -684,26 +687,32 @@ class InformationPlanner(Planner):
                 for lo, hi, u, f in zip(box_low, box_high, start, free, strict=True)
             ]
             mesh = np.stack([m.ravel() for m in np.meshgrid(*axes, indexing="ij")], axis=-1)
-            positions = self._tracks(states[row], mesh)[:, 0, :]
-            values = self._utility_at(i, beliefs, positions, others[:, 0, :])
+            mesh_tracks = self._tracks(states[row], mesh)  # (K, H, 2)
+            values = self._utility_at(i, beliefs, mesh_tracks[:, 0, :], others[:, 0, :])
             free_axes = [a for a, f in zip(axes, free, strict=True) if f]
-            grid_values = values.reshape([a.size for a in free_axes])
+            shape = [a.size for a in free_axes]
+            grid_values = values.reshape(shape)
+            grid_tracks = mesh_tracks.reshape(shape + list(mesh_tracks.shape[1:]))
             if len(free_axes) == 1:
                 spline: Any = interpolate.CubicSpline(free_axes[0], grid_values)
+                track_spline: Any = interpolate.CubicSpline(free_axes[0], grid_tracks)
             else:
                 spline = interpolate.RegularGridInterpolator(free_axes, grid_values, method="cubic")
+                track_spline = interpolate.RegularGridInterpolator(
+                    free_axes, grid_tracks, method="cubic"
+                )
 
             def cost(
                 u: FloatArray,
-                row: int = row,
                 others: FloatArray = others,
                 free: NDArray[np.bool_] = free,
                 several: bool = len(free_axes) > 1,
                 spline: Any = spline,
+                track_spline: Any = track_spline,
             ) -> FloatArray:
-                track = self._tracks(states[row], u)  # (1, H, 2)
                 free_u = u[:, free] if several else u[:, free][:, 0]
                 value = np.asarray(spline(free_u), dtype=np.float64).reshape(-1)
+                track = np.asarray(track_spline(free_u), dtype=np.float64)  # (1, H, 2)
                 penalty = horizon_separation_penalty(
                     track, others, settings.min_separation, settings.gamma
                 )
