@@ -647,18 +647,22 @@ class _NoiseKernel:
         else:
             np.clip(position, 0.0, q - 1.0, out=position)
         position += np.float32(0.5)
-        index = position.astype(np.intp)
-        if self.periodic:
-            index[index >= q] -= q
-        index += (np.arange(n_batch, dtype=np.intp) * q)[:, None]
-        size = n_batch * q
+        index = position.astype(np.intp)  # in [0, q]; node q is node 0 across the seam
+        width = q + 1
+        index += (np.arange(n_batch, dtype=np.intp) * width)[:, None]
+        size = n_batch * width
         if particle_weights.min() == particle_weights.max():
             counts = np.bincount(index.ravel(), None, size).astype(np.float64)
             histogram = counts * (1.0 / n)
         else:
             weight = np.broadcast_to(particle_weights, (n_batch, n))
             histogram = np.bincount(index.ravel(), weight.ravel(), size)
-        return histogram.reshape(n_batch, q)
+        histogram = histogram.reshape(n_batch, width)
+        if self.periodic:
+            histogram[:, 0] += histogram[:, q]
+        else:  # clipped positions round up to q only from q - 1/2: the last node
+            histogram[:, q - 1] += histogram[:, q]
+        return histogram[:, :q]
 
     def smoothed_entropy(self, histograms: NDArray[Any]) -> FloatArray:
         """Discrete entropy of histograms convolved with the noise density (FFT).
