@@ -141,6 +141,7 @@ register(
             "dt": 1.0,
             "min_separation": 1.0,
             "start_center": (5.0, 5.0),
+            "filter_max_snr": 5.0,
         },
         description="quadrotors with rescue-beacon receivers, target (x, y, psi) (section IV-B)",
     )

@@ -7,11 +7,15 @@ input validation directly.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from scipy import stats
 
+import infoseek.envs
 from infoseek.envs.belief import BeliefUpdate, BeliefView, ParticleBelief
+from infoseek.envs.sensors import BeaconSensor
 from infoseek.envs.sensors.base import ObservationDomain, Sensor
 from infoseek.envs.targets import (
     TARGET_MOTION_REGISTRY,
@@ -662,3 +666,28 @@ def test_bad_tempering_arguments() -> None:
     for bad in (0, 2.5, True):
         with pytest.raises(ValueError, match="max_tempering_stages"):
             ParticleBelief(good, PLANAR, np.random.default_rng(0), max_tempering_stages=bad)
+
+
+def test_beacon_filter_noise_floor_is_an_inflated_noise_likelihood() -> None:
+    """max_snr = c evaluates the exact density with noise std max(s, |H| / c) per particle."""
+    sensor = BeaconSensor(moment=1000.0, noise_std=1.0)
+    rng = np.random.default_rng(3)
+    particles = np.column_stack(
+        [rng.uniform(0, 12, 40), rng.uniform(0, 12, 40), rng.uniform(0, 6, 40)]
+    )
+    pose, z = np.array([[5.0, 5.0]]), np.array([[0.7]])
+    np.testing.assert_array_equal(
+        sensor.log_likelihood(z, pose, particles, max_snr=math.inf),
+        sensor.log_likelihood(z, pose, particles),
+    )
+    floored = sensor.log_likelihood(z, pose, particles, max_snr=5.0)[0]
+    rho = np.linalg.norm(sensor.field(pose, particles), axis=-1)  # (N,) with noise_std 1
+    assert np.any(rho > 5.0) and np.any(rho < 5.0)
+    for k in range(len(particles)):
+        inflated = BeaconSensor(moment=1000.0, noise_std=max(1.0, rho[k] / 5.0))
+        expected = inflated.log_likelihood(z, pose, particles[k : k + 1])[0, 0]
+        assert floored[k] == pytest.approx(expected, rel=1e-9, abs=1e-12)
+    env = infoseek.envs.make("beacon_v0", n_agents=2, n_particles=50)
+    assert env.unwrapped.filter_max_snr == 5.0
+    with pytest.raises(ValueError, match="filter_max_snr"):
+        infoseek.envs.make("bearings_v0", n_agents=2, filter_max_snr=5.0)

@@ -255,10 +255,11 @@ def _step_and_recompute(env, seed: int):
     _, _, _, _, infos = env.step(_random_actions(env, np.random.default_rng(seed)))
     z = np.array(env.last_measurements)
     poses = infos["vehicle_0"]["vehicle_states"][:, :2]
-    loglik = env.sensor.log_likelihood(z, poses, particles["vehicle_0"])  # (A, N) for agent 0
+    # the beliefs' likelihood: the sensor's, with beacon_v0's filter noise floor (max_snr)
+    filter_model = env.filter_likelihood
     results = {}
     for i, agent in enumerate(env.possible_agents):
-        loglik = env.sensor.log_likelihood(z, poses, particles[agent])
+        loglik = filter_model.log_likelihood(z, poses, particles[agent])
         own = priors[agent] + loglik[i]
         everyone = priors[agent] + loglik.sum(axis=0)
         results[agent] = (

@@ -236,13 +236,26 @@ class BeaconSensor:
         angle = np.arctan2(noisy[..., 1], noisy[..., 0])
         return wrap_into(angle, 0.0, math.pi)[..., None]
 
-    def log_likelihood(self, z: FloatArray, poses: FloatArray, particles: FloatArray) -> FloatArray:
+    def log_likelihood(
+        self,
+        z: FloatArray,
+        poses: FloatArray,
+        particles: FloatArray,
+        *,
+        max_snr: float = math.inf,
+    ) -> FloatArray:
         """Exact folded projected-normal ``log p(z | theta)`` for every particle.
 
         Args:
             z: ``(..., 1)`` observed directions (any real; the density has period ``pi``).
             poses: ``(..., 2)`` receiver positions; batch shape broadcasts against ``z``.
             particles: ``(N, 3)`` beacon hypotheses ``(x_a, y_a, psi_a)``.
+            max_snr: Optional cap ``c > 0`` on ``rho = |H| / noise_std`` (default ``inf``: the
+                exact model). With a cap the density is the folded projected normal of a
+                receiver whose noise std is inflated to ``max(noise_std, |H| / c)``: the same
+                field direction with a peak no narrower than ``~1/c`` rad. A filter-side
+                "noise floor" setting (see ``InformationSeekingEnv(filter_max_snr=...)``);
+                :meth:`sample` is unaffected.
 
         Returns:
             ``(..., N)`` log densities on ``[0, pi)``.
@@ -253,6 +266,10 @@ class BeaconSensor:
         particles = as_particles(particles, "particles", 3, owner)
         check_broadcast(z, poses, owner)
         mu_x, mu_y = self._scaled_field(poses, particles)
+        if max_snr != math.inf:
+            cap = check_positive(max_snr, "max_snr", owner)
+            shrink = np.minimum(1.0, cap / np.maximum(np.hypot(mu_x, mu_y), 1e-300))
+            mu_x, mu_y = mu_x * shrink, mu_y * shrink
         cos_z, sin_z = np.cos(z), np.sin(z)  # (..., 1) broadcasting against (..., N)
         along = np.abs(mu_x * cos_z + mu_y * sin_z)
         across = mu_x * sin_z - mu_y * cos_z
