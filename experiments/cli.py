@@ -14,6 +14,8 @@ Subcommands:
   (:mod:`infoseek.experiments.plot`).
 * ``infoseek reproduce fig1|fig2``: the trials and plots of the paper's figures with the paper's
   settings (:mod:`infoseek.experiments.reproduce`).
+* ``infoseek claims DIR``: paired statistical tests of the paper's Fig. 1 claims on stored
+  trials (:mod:`infoseek.experiments.claims`).
 * ``infoseek train``: train one parameter-shared RL policy (PPO, SAC or TD3) on an environment's
   entropy-reduction reward (:mod:`infoseek.experiments.train`, needs the ``rl`` extra).
 
@@ -31,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from infoseek.experiments.arguments import add_environment_overrides
+from infoseek.experiments.claims import add_claims_arguments, run_claims
 from infoseek.experiments.demo import add_demo_arguments, run_demo
 from infoseek.experiments.timing import add_timing_arguments, run_timing
 from infoseek.experiments.train import add_train_arguments, run_train
@@ -316,6 +319,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_reproduce_arguments(reproduce)
     reproduce.set_defaults(handler=run_reproduce_command)
+    claims = sub.add_parser(
+        "claims", help="paired statistical tests of the paper's Fig. 1 claims on stored trials"
+    )
+    add_claims_arguments(claims)
+    claims.set_defaults(handler=run_claims)
     train = sub.add_parser(
         "train", help="train a parameter-shared RL policy (PPO/SAC/TD3) on the entropy reward"
     )

@@ -71,15 +71,11 @@ def _draw_group(
     every = max(1, matrix.shape[1] // 12)
     (line,) = axes.plot(steps, mean, linestyle=linestyle, color=color, label=label, lw=1.6)
     marks = steps[::every]
-    axes.errorbar(
-        marks + offset,
-        mean[::every],
-        yerr=np.vstack([mean[::every] - q25[::every], q75[::every] - mean[::every]]),
-        fmt="none",
-        ecolor=line.get_color(),
-        elinewidth=1.0,
-        capsize=2.5,
-    )
+    # Quartile bars span [q25, q75]; the mean of a skewed distribution may lie outside them,
+    # so they are drawn as their own segments, not as error bars around the mean.
+    axes.vlines(marks + offset, q25[::every], q75[::every], colors=line.get_color(), lw=1.0)
+    for level in (q25[::every], q75[::every]):
+        axes.plot(marks + offset, level, linestyle="none", marker="_", ms=5, color=line.get_color())
 
 
 def _style(axes: Any, title: str, radius: float) -> None:

@@ -172,3 +172,75 @@ def test_plot_without_trials_says_so(tmp_path: Path, capsys: pytest.CaptureFixtu
     )
     assert main(["plot", str(tmp_path)]) == 2
     assert "nothing to plot" in capsys.readouterr().err
+
+
+def _synthetic_store(directory: Path, times: dict[tuple[str, int], list[int]], steps: int) -> None:
+    """A results store whose trial ``k`` of each group first reaches mass 0.9 at ``times[k]``."""
+    from infoseek.experiments.store import FORMAT, FORMAT_VERSION, MANIFEST_NAME, TRIALS_NAME
+
+    directory.mkdir(parents=True)
+    manifest = {
+        "config": {"env": "bearings_v0", "env_kwargs": {}, "seed": 0, "steps": steps},
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+    }
+    (directory / MANIFEST_NAME).write_text(json.dumps(manifest))
+    lines = []
+    for (planner, n_agents), ttls in times.items():
+        for trial, ttl in enumerate(ttls):
+            mass = [0.5] * ttl + [0.95] * (steps + 1 - ttl)
+            lines.append(
+                json.dumps(
+                    {
+                        "key": f"{planner}/agents={n_agents}/trial={trial}",
+                        "planner": planner,
+                        "n_agents": n_agents,
+                        "trial": trial,
+                        "env_seed": 1000 + trial,
+                        "mass_agent0": mass,
+                        "plan_time": [0.001] * steps,
+                    }
+                )
+            )
+    (directory / TRIALS_NAME).write_text("\n".join(lines) + "\n")
+
+
+def test_claims_detects_a_paired_improvement_and_its_absence(tmp_path: Path, capsys) -> None:
+    rng = np.random.default_rng(0)
+    base = rng.integers(10, 30, size=40)
+    faster = base - rng.integers(1, 3, size=40)  # pairwise always 1-2 steps sooner
+    times = {
+        ("single", 4): base.tolist(),
+        ("pairwise", 4): faster.tolist(),
+        ("pairwise", 2): (faster + 3).tolist(),
+        ("pairwise", 10): (faster - 3).tolist(),
+    }
+    _synthetic_store(tmp_path / "holds", times, steps=60)
+    assert main(["claims", str(tmp_path / "holds")]) == 0
+    out = capsys.readouterr().out
+    assert "Claim A" in out and "-> holds" in out.split("Claim A")[1].split("\n")[0]
+    assert "-> holds" in out.split("Claim B")[1].split("\n")[0]
+
+    # Same times for both planners and a fleet-size order that is reversed: neither claim.
+    times = {
+        ("single", 4): base.tolist(),
+        ("pairwise", 4): base.tolist(),
+        ("pairwise", 2): (base - 3).tolist(),
+        ("pairwise", 10): (base + 3).tolist(),
+    }
+    _synthetic_store(tmp_path / "fails", times, steps=60)
+    assert main(["claims", str(tmp_path / "fails")]) == 0
+    out = capsys.readouterr().out
+    assert "not supported" in out.split("Claim A")[1].split("\n")[0]
+    assert "not supported" in out.split("Claim B")[1].split("\n")[0]
+
+
+def test_claims_rejects_unpaired_stores(tmp_path: Path, capsys) -> None:
+    _synthetic_store(tmp_path / "s", {("single", 4): [5, 6], ("pairwise", 4): [4, 5]}, steps=20)
+    trials = (tmp_path / "s" / "trials.jsonl").read_text().splitlines()
+    record = json.loads(trials[-1])
+    record["env_seed"] = 7
+    trials[-1] = json.dumps(record)
+    (tmp_path / "s" / "trials.jsonl").write_text("\n".join(trials) + "\n")
+    assert main(["claims", str(tmp_path / "s")]) == 2
+    assert "not paired" in capsys.readouterr().err

@@ -1,0 +1,150 @@
+"""``infoseek claims DIR``: statistical tests of the paper's Fig. 1 claims on stored trials.
+
+The paper (section IV.A, Fig. 1) makes two claims about bearings-only search:
+
+* **A** (Fig. 1a): with ``n_v = 4`` vehicles the pairwise-node approximation localises faster
+  than the single-node approximation;
+* **B** (Fig. 1b): more vehicles localise faster (pairwise-node, ``n_v = 2, 3, 4, 10``).
+
+Trial ``k`` of every group in a store faces the same target and start (its environment seed
+depends only on the run's seed, the environment and ``k``; see
+:mod:`infoseek.experiments.bench`), so groups are compared **paired by trial**. The response is
+the time to localise: the first step at which agent 0's posterior mass within the localisation
+radius of its MMSE estimate reaches 0.9 (the Fig. 1 metric), censored at the episode length.
+
+* Claim A: one-sided Wilcoxon signed-rank test of ``ttl(single) - ttl(pairwise) > 0``
+  (``scipy.stats.wilcoxon``, zero differences dropped), with the mean paired difference and
+  its standard error.
+* Claim B: Page's L test for an ordered alternative (``scipy.stats.page_trend_test``), trials as
+  blocks and fleet sizes as treatments, predicting time to localise decreasing in ``n_v``; and
+  one-sided Wilcoxon tests between consecutive fleet sizes.
+
+A claim "holds" at level ``alpha`` when its test rejects the null of no difference in the
+claimed direction. The command also prints the summary table of every group in the store.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from infoseek.experiments.bench import format_summary, summarise, time_to_localise
+from infoseek.experiments.store import read_manifest, read_records
+
+
+def add_claims_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``infoseek claims``."""
+    parser.add_argument("directory", type=Path, help="results directory of a bench/reproduce run")
+    parser.add_argument("--alpha", type=float, default=0.05, help="significance level (0.05)")
+
+
+def times_to_localise(
+    records: Sequence[Mapping[str, Any]], planner: str, n_agents: int, steps: int
+) -> dict[int, float]:
+    """``{trial: censored time to localise}`` of one group, checking the pairing by seed."""
+    times = {}
+    for record in records:
+        if record["planner"] == planner and int(record["n_agents"]) == n_agents:
+            ttl = time_to_localise(record["mass_agent0"])
+            times[int(record["trial"])] = float(steps if ttl is None else ttl)
+    return times
+
+
+def _paired(groups: Sequence[dict[int, float]]) -> np.ndarray:
+    """``(trials, groups)`` matrix over the trials every group has."""
+    common = sorted(set.intersection(*(set(g) for g in groups)))
+    return np.array([[g[t] for g in groups] for t in common], dtype=float).reshape(
+        len(common), len(groups)
+    )
+
+
+def _check_pairing(records: Sequence[Mapping[str, Any]]) -> None:
+    seeds: dict[int, int] = {}
+    for record in records:
+        trial, seed = int(record["trial"]), int(record["env_seed"])
+        if seeds.setdefault(trial, seed) != seed:
+            raise ValueError(
+                f"trial {trial} has different environment seeds across groups: the store's "
+                "groups are not paired"
+            )
+
+
+def wilcoxon_faster(slower: np.ndarray, faster: np.ndarray) -> tuple[float, float, float]:
+    """One-sided Wilcoxon signed-rank test that ``faster`` localises sooner than ``slower``.
+
+    Returns:
+        ``(mean difference slower - faster, its standard error, p-value)``.
+    """
+    difference = slower - faster
+    stderr = float(np.std(difference, ddof=1) / np.sqrt(difference.size))
+    if not np.any(difference != 0):
+        return 0.0, stderr, 1.0
+    result = stats.wilcoxon(slower, faster, alternative="greater", zero_method="wilcox")
+    return float(np.mean(difference)), stderr, float(result.pvalue)
+
+
+def run_claims(args: argparse.Namespace) -> int:
+    """Print the summary table and the tests of claims A and B; returns the exit code."""
+    if not 0.0 < args.alpha < 1.0:
+        raise ValueError(f"--alpha must be in (0, 1), got {args.alpha}")
+    manifest = read_manifest(args.directory)
+    records = read_records(args.directory)
+    if not records:
+        raise ValueError(f"{args.directory}: the store holds no trials")
+    steps = int(manifest["config"]["steps"])
+    _check_pairing(records)
+    print(format_summary(summarise(records, steps), steps))
+    print()
+    groups = {(r["planner"], int(r["n_agents"])) for r in records}
+
+    if {("single", 4), ("pairwise", 4)} <= groups:
+        data = _paired(
+            [
+                times_to_localise(records, "single", 4, steps),
+                times_to_localise(records, "pairwise", 4, steps),
+            ]
+        )
+        mean, stderr, p = wilcoxon_faster(data[:, 0], data[:, 1])
+        verdict = "holds" if p < args.alpha else "not supported"
+        print(
+            f"Claim A (n_v = 4, pairwise faster than single): {data.shape[0]} paired trials, "
+            f"mean ttl single - pairwise = {mean:+.2f} +- {stderr:.2f} steps, one-sided "
+            f"Wilcoxon p = {p:.3g} -> {verdict} at alpha = {args.alpha}"
+        )
+    else:
+        print("Claim A: needs groups single/4 and pairwise/4")
+
+    sizes = sorted(n for planner, n in groups if planner == "pairwise")
+    if len(sizes) >= 2:
+        ordered = sorted(sizes, reverse=True)  # predicted: ttl increases as n_v decreases
+        data = _paired([times_to_localise(records, "pairwise", n, steps) for n in ordered])
+        page = stats.page_trend_test(data)
+        verdict = "holds" if page.pvalue < args.alpha else "not supported"
+        means = ", ".join(
+            f"n_v={n}: {m:.2f}" for n, m in zip(ordered, data.mean(axis=0), strict=True)
+        )
+        print(
+            f"Claim B (more vehicles localise faster, pairwise): {data.shape[0]} paired trials, "
+            f"mean ttl {means}; Page's L = {page.statistic:.1f}, p = {page.pvalue:.3g} -> "
+            f"{verdict} at alpha = {args.alpha}"
+        )
+        for fewer, more in zip(sizes[:-1], sizes[1:], strict=True):
+            pair = _paired(
+                [
+                    times_to_localise(records, "pairwise", fewer, steps),
+                    times_to_localise(records, "pairwise", more, steps),
+                ]
+            )
+            mean, stderr, p = wilcoxon_faster(pair[:, 0], pair[:, 1])
+            print(
+                f"  n_v = {more} vs {fewer}: mean ttl difference {mean:+.2f} +- {stderr:.2f} "
+                f"steps, one-sided Wilcoxon p = {p:.3g}"
+            )
+    else:
+        print("Claim B: needs pairwise groups with at least two fleet sizes")
+    return 0
