@@ -54,8 +54,6 @@ class Vehicle(Protocol):
         """``(..., 2)`` planar positions of ``(..., state_dim)`` states."""
         ...
 
-    def initial_states(
-        self, positions: FloatArray, rng: np.random.Generator
-    ) -> FloatArray:
+    def initial_states(self, positions: FloatArray, rng: np.random.Generator) -> FloatArray:
         """States at rest/cruise for vehicles starting at ``(A, 2)`` positions."""
         ...
