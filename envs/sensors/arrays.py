@@ -152,3 +152,28 @@ def check_broadcast(z: FloatArray, poses: FloatArray, owner: str) -> None:
         raise ValueError(
             f"{owner}: batch shapes of z {z.shape} and poses {poses.shape} do not broadcast"
         ) from error
+
+
+def planar_offsets(poses: object, targets: object, owner: str) -> FloatArray:
+    """``(..., 2)`` offsets ``target[:2] - pose`` of broadcast pose and target batches.
+
+    Args:
+        poses: ``(..., 2)`` sensor positions.
+        targets: ``(..., >= 2)`` target states (the first two coordinates are the position).
+        owner: Name used in error messages.
+
+    Raises:
+        ValueError: Wrong shapes, non-finite values or batch shapes that do not broadcast.
+    """
+    poses = as_points(poses, "poses", 2, owner)
+    targets = np.asarray(targets, dtype=np.float64)
+    if targets.ndim < 1 or targets.shape[-1] < 2:
+        raise ValueError(f"{owner}: targets must have shape (..., 2), got {targets.shape}")
+    targets = as_points(targets[..., :2], "targets", 2, owner)
+    try:
+        return targets - poses
+    except ValueError as error:
+        raise ValueError(
+            f"{owner}: batch shapes of poses {poses.shape} and targets {targets.shape} "
+            "do not broadcast"
+        ) from error

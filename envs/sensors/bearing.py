@@ -74,6 +74,7 @@ from infoseek.envs.sensors.arrays import (
     check_rng,
     float_dtype,
     normal_bin_masses,
+    planar_offsets,
     wrap_into,
 )
 from infoseek.envs.sensors.base import FloatArray, ObservationDomain
@@ -234,18 +235,7 @@ class BearingSensor:
         """
         owner = "BearingSensor.sample"
         rng = check_rng(rng, owner)
-        poses = as_points(poses, "poses", 2, owner)
-        targets = np.asarray(targets, dtype=np.float64)
-        if targets.ndim < 1 or targets.shape[-1] < 2:
-            raise ValueError(f"{owner}: targets must have shape (..., 2), got {targets.shape}")
-        targets = as_points(targets[..., :2], "targets", 2, owner)
-        try:
-            delta = targets - poses
-        except ValueError as error:
-            raise ValueError(
-                f"{owner}: batch shapes of poses {poses.shape} and targets {targets.shape} "
-                "do not broadcast"
-            ) from error
+        delta = planar_offsets(poses, targets, owner)
         mean = np.arctan2(delta[..., 1], delta[..., 0])
         noisy = mean + self.sigma * rng.standard_normal(mean.shape)
         return wrap_into(noisy, -math.pi, TWO_PI)[..., None]

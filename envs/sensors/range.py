@@ -46,6 +46,7 @@ from infoseek.envs.sensors.arrays import (
     check_rng,
     float_dtype,
     normal_bin_masses,
+    planar_offsets,
 )
 from infoseek.envs.sensors.base import FloatArray, ObservationDomain
 
@@ -141,18 +142,7 @@ class RangeSensor:
         """
         owner = "RangeSensor.sample"
         rng = check_rng(rng, owner)
-        poses = as_points(poses, "poses", 2, owner)
-        targets = np.asarray(targets, dtype=np.float64)
-        if targets.ndim < 1 or targets.shape[-1] < 2:
-            raise ValueError(f"{owner}: targets must have shape (..., 2), got {targets.shape}")
-        targets = as_points(targets[..., :2], "targets", 2, owner)
-        try:
-            delta = targets - poses
-        except ValueError as error:
-            raise ValueError(
-                f"{owner}: batch shapes of poses {poses.shape} and targets {targets.shape} "
-                "do not broadcast"
-            ) from error
+        delta = planar_offsets(poses, targets, owner)
         distance = np.hypot(delta[..., 0], delta[..., 1])
         return (distance + self.sigma * rng.standard_normal(distance.shape))[..., None]
 
