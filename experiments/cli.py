@@ -298,37 +298,54 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    demo = sub.add_parser("demo", help="run one search episode and write a GIF and a PNG of it")
-    add_demo_arguments(demo)
-    demo.set_defaults(handler=run_demo)
-    timing = sub.add_parser(
-        "timing", help="measure mutual-information, planning and env-step speed"
+    subcommands = (
+        (
+            "demo",
+            "run one search episode and write a GIF and a PNG of it",
+            add_demo_arguments,
+            run_demo,
+        ),
+        (
+            "timing",
+            "measure mutual-information, planning and env-step speed",
+            add_timing_arguments,
+            run_timing,
+        ),
+        (
+            "bench",
+            "Monte Carlo trials of planners over seeds into a resumable results store",
+            add_bench_arguments,
+            run_bench_command,
+        ),
+        (
+            "plot",
+            "the paper's Fig. 1 from a bench results directory",
+            add_plot_arguments,
+            run_plot_command,
+        ),
+        (
+            "reproduce",
+            "run and plot the paper's Fig. 1 or Fig. 2 with its settings",
+            add_reproduce_arguments,
+            run_reproduce_command,
+        ),
+        (
+            "claims",
+            "paired statistical tests of the paper's Fig. 1 claims on stored trials",
+            add_claims_arguments,
+            run_claims,
+        ),
+        (
+            "train",
+            "train a parameter-shared RL policy (PPO/SAC/TD3) on the entropy reward",
+            add_train_arguments,
+            run_train,
+        ),
     )
-    add_timing_arguments(timing)
-    timing.set_defaults(handler=run_timing)
-    bench = sub.add_parser(
-        "bench", help="Monte Carlo trials of planners over seeds into a resumable results store"
-    )
-    add_bench_arguments(bench)
-    bench.set_defaults(handler=run_bench_command)
-    plot = sub.add_parser("plot", help="the paper's Fig. 1 from a bench results directory")
-    add_plot_arguments(plot)
-    plot.set_defaults(handler=run_plot_command)
-    reproduce = sub.add_parser(
-        "reproduce", help="run and plot the paper's Fig. 1 or Fig. 2 with its settings"
-    )
-    add_reproduce_arguments(reproduce)
-    reproduce.set_defaults(handler=run_reproduce_command)
-    claims = sub.add_parser(
-        "claims", help="paired statistical tests of the paper's Fig. 1 claims on stored trials"
-    )
-    add_claims_arguments(claims)
-    claims.set_defaults(handler=run_claims)
-    train = sub.add_parser(
-        "train", help="train a parameter-shared RL policy (PPO/SAC/TD3) on the entropy reward"
-    )
-    add_train_arguments(train)
-    train.set_defaults(handler=run_train)
+    for name, help_text, add_arguments, handler in subcommands:
+        subparser = sub.add_parser(name, help=help_text)
+        add_arguments(subparser)
+        subparser.set_defaults(handler=handler)
     return parser
 
 
