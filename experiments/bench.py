@@ -104,7 +104,8 @@ def trial_seeds(seed: int, env: str, planner: str, n_agents: int, trial: int) ->
 
 
 def _import_object(spec: str, what: str) -> Any:
-    """The object named ``"package.module:attribute"``."""
+    """The object named ``"package.module:attribute"`` (``attribute`` may be dotted, e.g.
+    ``"mypackage.planners:MyPlanner.from_env"``)."""
     module_name, _, attribute = spec.partition(":")
     if not module_name or not attribute:
         raise ValueError(f"{what} {spec!r}: expected 'package.module:callable'")
@@ -112,10 +113,13 @@ def _import_object(spec: str, what: str) -> Any:
         module = importlib.import_module(module_name)
     except ImportError as error:
         raise ValueError(f"{what} {spec!r}: cannot import {module_name!r} ({error})") from None
+    target: Any = module
     try:
-        return getattr(module, attribute)
+        for name in attribute.split("."):
+            target = getattr(target, name)
     except AttributeError:
         raise ValueError(f"{what} {spec!r}: {module_name!r} has no {attribute!r}") from None
+    return target
 
 
 def env_ids() -> list[str]:

@@ -244,3 +244,14 @@ def test_claims_rejects_unpaired_stores(tmp_path: Path, capsys) -> None:
     (tmp_path / "s" / "trials.jsonl").write_text("\n".join(trials) + "\n")
     assert main(["claims", str(tmp_path / "s")]) == 2
     assert "not paired" in capsys.readouterr().err
+
+
+def test_bench_accepts_a_planner_factory_path(tmp_path: Path) -> None:
+    out = tmp_path / "factory"
+    argv = ["bench", "--env", "bearings_v0", "--agents", "2", "--trials", "1", "--steps", "2"]
+    argv += ["--particles", "50", "--out", str(out), "--no-progress"]
+    factory = "infoseek.planners:SingleNodePlanner.from_env"
+    assert main([*argv, "--planner", factory]) == 0
+    (record,) = [json.loads(line) for line in (out / TRIALS_NAME).read_text().splitlines()]
+    assert record["planner"] == factory and len(record["plan_time"]) == 2
+    assert main([*argv, "--planner", "infoseek.planners:NoSuchPlanner.from_env"]) == 2
