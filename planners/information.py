@@ -876,9 +876,11 @@ class PairwiseMIEvaluator:
     """Pair MIs ``I(z_a, z_b; theta)`` against one fixed belief, with per-pose work cached.
 
     :func:`pairwise_mutual_information` for repeated calls on the same belief (a planner's
-    coordination sweeps and refinement): the belief is validated once and, on the ``"fft"``
-    path, each pose's noise-free predictions are computed once and remembered (keyed by the
-    exact pose), so a call whose poses were seen before only forms the pair histograms.
+    coordination sweeps and refinement): the belief is validated once and each pose's work is
+    computed once and remembered (keyed by the exact pose): noise-free predictions and window
+    stencils on the ``"fft"`` path, likelihood or bin-probability channels on the
+    ``"quadrature"`` and ``"quantised"`` paths. A call whose poses were seen before only forms
+    the pair joints.
 
     Args:
         sensor: The sensor model.
@@ -914,6 +916,7 @@ class PairwiseMIEvaluator:
         self._max_cached = int(max_cached_poses)
         self._predictions: dict[bytes, FloatArray] = {}
         self._sides: dict[bytes, _WindowSide] = {}
+        self._channels: dict[bytes, tuple[FloatArray, float]] = {}
         if self.method == "fft":
             self.kernel = _kernel(sensor, _fft_grid_points(sensor, 2, n_points))
 
@@ -929,6 +932,30 @@ class PairwiseMIEvaluator:
                 self._predictions[keys[p]] = fresh[row]
         return np.stack([self._predictions[key] for key in keys])
 
+    def channels(self, poses: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Quadrature/quantised channels ``(P, N, Q)`` of ``(P, pose_dim)`` poses and their
+        ``(P,)`` conditional entropies, cached per pose (at most ``max_cached_poses`` poses and
+        about 256 MB)."""
+        keys = [pose.tobytes() for pose in poses]
+        missing = [p for p, key in enumerate(keys) if key not in self._channels]
+        if missing:
+            fresh = _pair_channels(
+                self.sensor,
+                poses[missing],
+                self.particles,
+                self.method,
+                self._options["n_points"],
+                self._options["edges"],
+            )
+            entropies = _channel_conditional_entropies(fresh, self.weights)
+            limit = min(self._max_cached, max(1, (256 << 20) // max(fresh[0].nbytes, 1)))
+            if len(self._channels) + len(missing) > limit:
+                self._channels.clear()
+            for row, p in enumerate(missing):
+                self._channels[keys[p]] = (fresh[row], float(entropies[row]))
+        entries = [self._channels[key] for key in keys]
+        return np.stack([c for c, _ in entries]), np.array([h for _, h in entries])
+
     def __call__(self, poses_a: Any, poses_b: Any) -> FloatArray:
         """``(C, M)`` pair MIs (nats) of every pose in ``poses_a`` with every one in ``poses_b``.
 
@@ -938,9 +965,15 @@ class PairwiseMIEvaluator:
         """
         poses_a = _check_poses(self.sensor, poses_a, "poses_a", 2)
         poses_b = _check_poses(self.sensor, poses_b, "poses_b", 2)
-        if self.method != "fft":
+        if self.method == "monte_carlo":
             return _pairwise_from_channels(
                 self.sensor, poses_a, poses_b, self.particles, self.weights, **self._options
+            )
+        if self.method != "fft":
+            channels_a, conditional_a = self.channels(poses_a)
+            channels_b, conditional_b = self.channels(poses_b)
+            return _pair_mi_from_channels(
+                channels_a, channels_b, conditional_a, conditional_b, self.weights
             )
         side_a = self._side(poses_a)
         side_b = self._side(poses_b)
@@ -1294,7 +1327,6 @@ def _pairwise_from_channels(
 ) -> FloatArray:
     """Pair MIs on the quadrature / quantised channels (Monte Carlo: pair by pair)."""
     n_a, n_b = poses_a.shape[0], poses_b.shape[0]
-    n = particles.shape[0]
     used = method
     result = np.empty((n_a, n_b))
     if used == "monte_carlo":
@@ -1303,21 +1335,48 @@ def _pairwise_from_channels(
                 pair = np.stack([poses_a[a], poses_b[b]])
                 result[a, b] = _monte_carlo(sensor, pair, particles, weights, n_samples, rng)[0]
         return result
-    if used == "quadrature":
+    channels_a = _pair_channels(sensor, poses_a, particles, used, n_points, edges)
+    channels_b = _pair_channels(sensor, poses_b, particles, used, n_points, edges)
+    return _pair_mi_from_channels(
+        channels_a,
+        channels_b,
+        _channel_conditional_entropies(channels_a, weights),
+        _channel_conditional_entropies(channels_b, weights),
+        weights,
+    )
+
+
+def _pair_channels(
+    sensor: Sensor,
+    poses: FloatArray,
+    particles: FloatArray,
+    method: str,
+    n_points: int | None,
+    edges: Any | None,
+) -> FloatArray:
+    """``(P, N, Q)`` quadrature or quantised channels of ``(P, pose_dim)`` poses (pair grid)."""
+    if method == "quadrature":
         q = _check_points(n_points) if n_points is not None else _DEFAULT_QUADRATURE_POINTS[2]
-        channels_a = _quadrature_channels(sensor, poses_a, particles, q)
-        channels_b = _quadrature_channels(sensor, poses_b, particles, q)
-    else:
-        edge_array = _edges_for(sensor, 2, edges, n_points)
-        channels_a = _quantised_channels(sensor, poses_a, particles, edge_array)
-        channels_b = _quantised_channels(sensor, poses_b, particles, edge_array)
-    q = channels_a.shape[-1]
-    conditional_a = np.einsum(
-        "cnq,n->c", -channels_a * np.log(np.maximum(channels_a, _TINY)), weights
-    )
-    conditional_b = np.einsum(
-        "mnq,n->m", -channels_b * np.log(np.maximum(channels_b, _TINY)), weights
-    )
+        return _quadrature_channels(sensor, poses, particles, q)
+    return _quantised_channels(sensor, poses, particles, _edges_for(sensor, 2, edges, n_points))
+
+
+def _channel_conditional_entropies(channels: FloatArray, weights: FloatArray) -> FloatArray:
+    """``(P,)`` values of ``sum_n w_n H(P[p, n])`` for ``(P, N, Q)`` channels."""
+    return np.einsum("pnq,n->p", -channels * np.log(np.maximum(channels, _TINY)), weights)
+
+
+def _pair_mi_from_channels(
+    channels_a: FloatArray,
+    channels_b: FloatArray,
+    conditional_a: FloatArray,
+    conditional_b: FloatArray,
+    weights: FloatArray,
+) -> FloatArray:
+    """``(C, M)`` pair MIs: joint ``P_a^T diag(w) P_b`` per pair minus the conditionals."""
+    n_a, n_b = channels_a.shape[0], channels_b.shape[0]
+    n, q = channels_a.shape[1:]
+    result = np.empty((n_a, n_b))
     right = np.transpose(channels_b, (1, 0, 2)).reshape(n, n_b * q)
     chunk = max(1, _BATCH_BUDGET // (n_b * q * q + n * q))
     for start in range(0, n_a, chunk):
