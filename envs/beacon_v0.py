@@ -73,8 +73,8 @@ infoseek.envs.beacon_v0.parallel_env(
     target_motion="stationary", target_motion_kwargs=None, domain_size=None,
     start_center=(5.0, 5.0), start_spacing=None, start_positions=None, min_separation=1.0,
     action_type="continuous", n_discrete_actions=5, separation_penalty=1.0,
-    resample_threshold=1.0, roughening=0.2, filter_max_snr=5.0, entropy_bins=None,
-    belief_grid=(8, 8),
+    resample_threshold=1.0, roughening=0.2, tempering_ess=0.0, filter_max_snr=5.0,
+    entropy_bins=None, belief_grid=(8, 8),
     localization_radius=1.0, localization_mass=0.9, terminate_on_localization=False,
     comm_range=inf, message_loss=0.0, render_mode=None,
 )
@@ -103,6 +103,12 @@ infoseek.envs.beacon_v0.parallel_env(
 * `separation_penalty` (1.0 per violated pair per step, >= 0).
 * `resample_threshold` (1.0), `roughening` (0.2), `entropy_bins` (None: 40 x 40 x 16):
   belief options.
+* `tempering_ess` (0.0: off): the beliefs' progressive correction (see
+  :mod:`infoseek.envs.belief`). Off for this version: its Metropolis moves treat the prior as
+  locally flat, which is exact only for the uniform prior; with a concentrated belief they
+  drift particles toward the current readings, and with the noise floor below the sharp
+  near-field updates no longer need it (the paper's Fig. 2 episode of
+  `infoseek reproduce fig2` localised with it off and formed a false fix with it on).
 * `filter_max_snr` (5.0): the filters' noise floor. Every belief evaluates the beacon
   likelihood as if the field noise were inflated wherever the signal-to-noise ratio
   ``|H| / noise_std`` exceeds 5 (angular std floor ~0.2 rad), because within a few units of the

@@ -67,8 +67,8 @@ infoseek.envs.bearings_v0.parallel_env(
     target_motion="stationary", target_motion_kwargs=None, domain_size=None,
     start_center=(5.0, 5.0), start_spacing=None, start_positions=None, min_separation=1.0,
     action_type="continuous", n_discrete_actions=5, separation_penalty=1.0,
-    resample_threshold=1.0, roughening=0.2, filter_max_snr=None, entropy_bins=None,
-    belief_grid=(8, 8),
+    resample_threshold=1.0, roughening=0.2, tempering_ess=0.1, filter_max_snr=None,
+    entropy_bins=None, belief_grid=(8, 8),
     localization_radius=1.0, localization_mass=0.9, terminate_on_localization=False,
     comm_range=inf, message_loss=0.0, render_mode=None,
 )
@@ -99,6 +99,8 @@ infoseek.envs.bearings_v0.parallel_env(
 * `separation_penalty` (1.0 reward units per violated pair per step, >= 0).
 * `resample_threshold` (1.0: resample after every informative update, as the paper; 0: never),
   `roughening` (0.2; 0 disables), `entropy_bins` (None: 40 x 40 cells): belief options.
+* `tempering_ess` (0.1; 0 disables): progressive correction of updates that would leave fewer
+  than 10% effective particles (see :mod:`infoseek.envs.belief`).
 * `filter_max_snr` (None): filter noise floor for sensors that support it (the beacon; see
   :mod:`infoseek.envs.search_env`); the bearing sensor does not, so it must stay `None`.
 * `belief_grid` ((8, 8)): coarse belief-mass grid in the observation.

@@ -42,7 +42,12 @@ the *current* per-coordinate std of the particles (so the steps shrink as they c
 each sweep ``TEMPERING_MOVE_SHRINK`` times smaller, accepted with probability
 ``min(1, exp(Lambda_s (L(proposal) - L(particle))))``, ``Lambda_s = lambda_1 + ... + lambda_s``.
 The prior density is treated as locally flat (it is only known through its particles); for a
-uniform prior this is an exact Metropolis kernel for ``pi_s``. A plain Gordon jitter (scale
+uniform prior this is an exact Metropolis kernel for ``pi_s``. For a concentrated, non-uniform
+prior it is not: the moves then drift particles toward the current readings, ignoring the
+history, which can build a false fix from noise-dominated readings (observed on the beacon;
+``beacon_v0`` therefore sets ``tempering_ess = 0``). A kernel that also weighs the prior (e.g.
+through a density estimate of the pre-move particles) would remove that bias. A plain Gordon
+jitter (scale
 ``~ range * N^(-1/d)``) was tried first: it is far too small to carry the particles to a peak
 thousands of its own widths away, and too large (range of a multi-modal set) to keep them on
 a thin likelihood ridge. ``L_k`` of accepted proposals is reused in the next stage.

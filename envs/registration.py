@@ -142,6 +142,7 @@ register(
             "min_separation": 1.0,
             "start_center": (5.0, 5.0),
             "filter_max_snr": 5.0,
+            "tempering_ess": 0.0,
         },
         description="quadrotors with rescue-beacon receivers, target (x, y, psi) (section IV-B)",
     )

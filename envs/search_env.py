@@ -258,6 +258,8 @@ class InformationSeekingEnv(ParallelEnv):
         separation_penalty: Reward subtracted per violated pair per step (>= 0).
         resample_threshold: Belief resampling threshold on ``ESS / N`` in ``[0, 1]``.
         roughening: Belief roughening factor (>= 0; 0 disables).
+        tempering_ess: Belief progressive-correction floor in ``[0, 1)`` (0 disables; see
+            :mod:`infoseek.envs.belief`).
         filter_max_snr: Filter noise floor (module docstring): ``None`` evaluates the exact
             likelihood; a float ``c > 0`` passes ``max_snr=c`` to the sensor's
             ``log_likelihood`` in every belief update (the sensor must accept it). The model
@@ -307,6 +309,7 @@ class InformationSeekingEnv(ParallelEnv):
         separation_penalty: float = 1.0,
         resample_threshold: float = 1.0,
         roughening: float = 0.2,
+        tempering_ess: float = 0.1,
         filter_max_snr: float | None = None,
         entropy_bins: tuple[int, ...] | None = None,
         belief_grid: tuple[int, int] = (8, 8),
@@ -351,6 +354,9 @@ class InformationSeekingEnv(ParallelEnv):
             resample_threshold, "resample_threshold", low=0.0, high=1.0
         )
         self.roughening = _check_float(roughening, "roughening", low=0.0)
+        self.tempering_ess = _check_float(tempering_ess, "tempering_ess", low=0.0, high=1.0)
+        if self.tempering_ess >= 1.0:
+            raise ValueError(f"tempering_ess must be in [0, 1), got {tempering_ess!r}")
         # the likelihood model every belief update uses: the sensor, or its noise-floored view
         if filter_max_snr is None:
             self.filter_max_snr: float | None = None
@@ -627,6 +633,7 @@ class InformationSeekingEnv(ParallelEnv):
                 resample_threshold=self.resample_threshold,
                 roughening=self.roughening,
                 entropy_bins=self.entropy_bins,
+                tempering_ess=self.tempering_ess,
             )
             for rng in belief_rngs
         ]
