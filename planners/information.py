@@ -358,17 +358,6 @@ def noise_std(sensor: Sensor) -> float:
     return std
 
 
-def _fft_points(sensor: Sensor, k: int, n_points: int | None) -> int:
-    if n_points is not None:
-        return _check_points(n_points)
-    domain = sensor.domain
-    width = float(domain.high[0]) - float(domain.low[0])
-    q = math.ceil(width * _FFT_POINTS_PER_STD[k] / noise_std(sensor))
-    q = max(q, _FFT_MIN_POINTS[k])
-    q = min(q, int(_MAX_GRID_CELLS ** (1.0 / k)))
-    return int(scipy.fft.next_fast_len(q, real=True))
-
-
 def _check_points(n_points: int) -> int:
     if int(n_points) != n_points or n_points < 2:
         raise ValueError(f"n_points must be an integer >= 2, got {n_points}")
@@ -455,6 +444,8 @@ def _channels_for(
     n_points: int | None,
     edges: FloatArray | None,
 ) -> FloatArray:
+    """``(P, N, Q)`` quadrature or quantised channels of ``(P, pose_dim)`` poses for the grid
+    size of ``k`` joint observations."""
     if method == "quadrature":
         q = _check_points(n_points) if n_points is not None else _DEFAULT_QUADRATURE_POINTS[k]
         return _quadrature_channels(sensor, poses, particles, q)
@@ -939,11 +930,12 @@ class PairwiseMIEvaluator:
         keys = [pose.tobytes() for pose in poses]
         missing = [p for p, key in enumerate(keys) if key not in self._channels]
         if missing:
-            fresh = _pair_channels(
+            fresh = _channels_for(
                 self.sensor,
+                self.method,
                 poses[missing],
                 self.particles,
-                self.method,
+                2,
                 self._options["n_points"],
                 self._options["edges"],
             )
@@ -1335,8 +1327,8 @@ def _pairwise_from_channels(
                 pair = np.stack([poses_a[a], poses_b[b]])
                 result[a, b] = _monte_carlo(sensor, pair, particles, weights, n_samples, rng)[0]
         return result
-    channels_a = _pair_channels(sensor, poses_a, particles, used, n_points, edges)
-    channels_b = _pair_channels(sensor, poses_b, particles, used, n_points, edges)
+    channels_a = _channels_for(sensor, used, poses_a, particles, 2, n_points, edges)
+    channels_b = _channels_for(sensor, used, poses_b, particles, 2, n_points, edges)
     return _pair_mi_from_channels(
         channels_a,
         channels_b,
@@ -1344,21 +1336,6 @@ def _pairwise_from_channels(
         _channel_conditional_entropies(channels_b, weights),
         weights,
     )
-
-
-def _pair_channels(
-    sensor: Sensor,
-    poses: FloatArray,
-    particles: FloatArray,
-    method: str,
-    n_points: int | None,
-    edges: Any | None,
-) -> FloatArray:
-    """``(P, N, Q)`` quadrature or quantised channels of ``(P, pose_dim)`` poses (pair grid)."""
-    if method == "quadrature":
-        q = _check_points(n_points) if n_points is not None else _DEFAULT_QUADRATURE_POINTS[2]
-        return _quadrature_channels(sensor, poses, particles, q)
-    return _quantised_channels(sensor, poses, particles, _edges_for(sensor, 2, edges, n_points))
 
 
 def _channel_conditional_entropies(channels: FloatArray, weights: FloatArray) -> FloatArray:
