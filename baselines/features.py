@@ -1,4 +1,4 @@
-"""Fixed affine observation scaling inside the policy network.
+"""Observation features inside the policy network: fixed scaling and an egocentric view.
 
 The observation of the information-seeking environments mixes positions in distance units
 (``0 .. 40`` and beyond: airplanes may leave the domain), angles in ``[-pi, pi]``, belief masses
@@ -18,6 +18,26 @@ with constants fixed by the environment's a-priori geometry (:func:`observation_
 Unlike a running normaliser (SB3's ``VecNormalize``) the constants do not change during training
 and are stored with the model (they are the ``features_extractor_kwargs`` in ``model.zip``), so
 a loaded policy needs nothing else to act.
+
+**Egocentric features** (:class:`EgocentricObservationExtractor`, the training default). The
+flat observation states positions in the world frame, but what a vehicle should do next depends
+on where things are *relative to its own position and heading*: "the estimate is ahead and to
+the left", "a team-mate is close on the right". An MLP can learn the rotation
+``R(-theta) (p - x)`` from ``(x, y, theta, p)`` only slowly, so the extractor computes it
+(no learned parameters) and appends it to the scaled observation. With own position
+``x_i``, heading ``theta_i`` (0 for vehicles without a heading), ``R = R(-theta_i)`` and the
+domain half-size ``h`` (per axis), the appended entries are
+
+* ``cos theta_i, sin theta_i``;
+* the own MMSE estimate ``m_i``: ``R (m_i - x_i) / h`` and ``|m_i - x_i| / |h|``;
+* each other vehicle ``j`` (by index): ``R (x_j - x_i) / h`` and ``1 / (1 + |x_j - x_i|)``
+  (large when close, the repulsion a team needs to spread its viewpoints);
+* the domain centre ``c``: ``R (c - x_i) / h``;
+* the spread of the belief-grid masses ``w_k`` at cell centres ``g_k``:
+  ``sqrt(sum_k w_k (g_k - gbar)^2) / h`` per axis (``gbar = sum_k w_k g_k``).
+
+Everything is computed from the observation alone, so the policy sees nothing the environment
+does not hand every agent.
 """
 
 from __future__ import annotations
@@ -30,7 +50,12 @@ import numpy as np
 import torch
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
-__all__ = ["ScaledObservationExtractor", "observation_scaling"]
+__all__ = [
+    "EgocentricObservationExtractor",
+    "ScaledObservationExtractor",
+    "egocentric_layout",
+    "observation_scaling",
+]
 
 
 def observation_scaling(env: Any) -> tuple[list[float], list[float]]:
@@ -109,3 +134,142 @@ class ScaledObservationExtractor(BaseFeaturesExtractor):
         """``(batch, obs_dim)`` -> ``(batch, obs_dim)`` scaled features."""
         flat = observations.reshape(observations.shape[0], -1).float()
         return (flat - self.offset) / self.scale
+
+
+def egocentric_layout(env: Any) -> dict[str, Any]:
+    """The observation indices and geometry :class:`EgocentricObservationExtractor` needs.
+
+    Args:
+        env: A parallel information-seeking environment (``unwrapped`` has
+            ``observation_layout``, ``space``, ``vehicle`` and ``belief_grid``).
+
+    Returns:
+        JSON-friendly keywords: ``x_index``, ``y_index``, ``heading_index`` (-1: no heading),
+        ``others_start``, ``n_others``, ``grid_start``, ``grid_shape``, ``estimate_start``,
+        ``domain_low``, ``domain_high`` (planar ``(2,)`` lists).
+
+    Raises:
+        ValueError: The vehicle state has no ``x``/``y`` entries.
+    """
+    base = env.unwrapped
+    layout = base.observation_layout
+    names = list(base.vehicle.state_names)
+    if "x" not in names or "y" not in names:
+        raise ValueError(f"egocentric features need x and y in the vehicle state, got {names}")
+    own = layout["own_state"].start
+    heading = names.index("heading") if "heading" in names else -1
+    others = layout.get("others_relative_positions", slice(0, 0))
+    return {
+        "x_index": own + names.index("x"),
+        "y_index": own + names.index("y"),
+        "heading_index": own + heading if heading >= 0 else -1,
+        "others_start": others.start,
+        "n_others": (others.stop - others.start) // 2,
+        "grid_start": layout["belief_grid"].start,
+        "grid_shape": [int(g) for g in base.belief_grid],
+        "estimate_start": layout["mmse_estimate"].start,
+        "domain_low": [float(v) for v in np.asarray(base.space.low)[:2]],
+        "domain_high": [float(v) for v in np.asarray(base.space.high)[:2]],
+    }
+
+
+class EgocentricObservationExtractor(ScaledObservationExtractor):
+    """Scaled observation plus body-frame geometry (module docstring; no learned parameters).
+
+    Args:
+        observation_space: The flat ``Box`` observation space, shape ``(obs_dim,)``.
+        offset: ``obs_dim`` offsets (:func:`observation_scaling`).
+        scale: ``obs_dim`` strictly positive scales.
+        layout: :func:`egocentric_layout` of the environment.
+
+    Raises:
+        ValueError: wrong lengths, non-positive scales, or layout indices outside the
+            observation.
+    """
+
+    def __init__(
+        self,
+        observation_space: gymnasium.spaces.Box,
+        offset: Sequence[float],
+        scale: Sequence[float],
+        layout: dict[str, Any],
+    ) -> None:
+        super().__init__(observation_space, offset, scale)
+        n = self._features_dim
+        gx, gy = (int(g) for g in layout["grid_shape"])
+        n_others = int(layout["n_others"])
+        checks = {
+            "x_index": int(layout["x_index"]) + 1,
+            "y_index": int(layout["y_index"]) + 1,
+            "heading_index": int(layout["heading_index"]) + 1,
+            "others": int(layout["others_start"]) + 2 * n_others,
+            "grid": int(layout["grid_start"]) + gx * gy,
+            "estimate": int(layout["estimate_start"]) + 2,
+        }
+        outside = {name: stop for name, stop in checks.items() if stop > n}
+        if outside:
+            raise ValueError(f"layout entries {sorted(outside)} lie beyond the {n} observations")
+        low = np.asarray(layout["domain_low"], dtype=np.float32)
+        high = np.asarray(layout["domain_high"], dtype=np.float32)
+        if low.shape != (2,) or high.shape != (2,) or not np.all(high > low):
+            raise ValueError(f"domain_low/high must be (2,) with high > low, got {low}, {high}")
+        self.x_index = int(layout["x_index"])
+        self.y_index = int(layout["y_index"])
+        self.heading_index = int(layout["heading_index"])
+        self.others_start = int(layout["others_start"])
+        self.n_others = n_others
+        self.grid_start = int(layout["grid_start"])
+        self.grid_size = gx * gy
+        self.estimate_start = int(layout["estimate_start"])
+        # cell centres of the x-slowest flat grid, (gx * gy, 2)
+        cx = low[0] + (np.arange(gx, dtype=np.float32) + 0.5) * (high[0] - low[0]) / gx
+        cy = low[1] + (np.arange(gy, dtype=np.float32) + 0.5) * (high[1] - low[1]) / gy
+        centres = np.stack(np.meshgrid(cx, cy, indexing="ij"), axis=-1).reshape(-1, 2)
+        self.register_buffer("cell_centres", torch.as_tensor(centres))
+        self.register_buffer("half_size", torch.as_tensor(0.5 * (high - low)))
+        self.register_buffer("domain_centre", torch.as_tensor(0.5 * (high + low)))
+        self._features_dim = n + 2 + 3 + 3 * n_others + 2 + 2
+
+    def forward(self, observations: torch.Tensor) -> torch.Tensor:
+        """``(batch, obs_dim)`` -> ``(batch, features_dim)``."""
+        flat = observations.reshape(observations.shape[0], -1).float()
+        scaled = (flat - self.offset) / self.scale
+        position = flat[:, [self.x_index, self.y_index]]  # (B, 2)
+        if self.heading_index >= 0:
+            heading = flat[:, self.heading_index]
+        else:
+            heading = torch.zeros_like(flat[:, 0])
+        cos, sin = torch.cos(heading), torch.sin(heading)
+
+        def body(vectors: torch.Tensor) -> torch.Tensor:
+            """World-frame ``(B, ..., 2)`` -> body frame, divided by the half-size."""
+            c = cos.reshape(-1, *([1] * (vectors.dim() - 2)))
+            s = sin.reshape(-1, *([1] * (vectors.dim() - 2)))
+            forward = c * vectors[..., 0] + s * vectors[..., 1]
+            left = -s * vectors[..., 0] + c * vectors[..., 1]
+            return torch.stack([forward, left], dim=-1) / self.half_size
+
+        to_estimate = flat[:, self.estimate_start : self.estimate_start + 2] - position
+        others = flat[:, self.others_start : self.others_start + 2 * self.n_others]
+        others = others.reshape(-1, self.n_others, 2)
+        proximity = 1.0 / (1.0 + torch.linalg.vector_norm(others, dim=-1))
+        masses = flat[:, self.grid_start : self.grid_start + self.grid_size]
+        masses = masses / masses.sum(dim=1, keepdim=True).clamp_min(1e-12)
+        mean = masses @ self.cell_centres  # (B, 2)
+        deviations = self.cell_centres[None, :, :] - mean[:, None, :]  # (B, cells, 2)
+        variance = (masses[:, :, None] * deviations**2).sum(dim=1)
+        spread = torch.sqrt(variance) / self.half_size
+        parts = [
+            scaled,
+            torch.stack([cos, sin], dim=1),
+            body(to_estimate),
+            (
+                torch.linalg.vector_norm(to_estimate, dim=1)
+                / torch.linalg.vector_norm(self.half_size)
+            )[:, None],
+            body(others).reshape(-1, 2 * self.n_others),
+            proximity,
+            body(self.domain_centre - position),
+            spread,
+        ]
+        return torch.cat(parts, dim=1)

@@ -5,8 +5,10 @@ of the environment (:func:`infoseek.baselines.vec_env.make_training_vec_env`); t
 environment's own per-agent entropy reduction ``H_{t-1} - H_t`` minus the separation penalty.
 A *timestep* is one agent transition, so an episode of ``T`` steps with ``A`` agents counts
 ``T * A`` timesteps. PPO works with both action types; SAC and TD3 need
-``action_type="continuous"``. Observations are scaled by fixed constants inside the network
-(:mod:`infoseek.baselines.features`).
+``action_type="continuous"``. Observations are scaled by fixed constants inside the network and,
+by default (``features="egocentric"``), extended with body-frame geometry: the direction and
+distance of the own estimate and of the team-mates seen from the vehicle's own heading
+(:mod:`infoseek.baselines.features`; ``features="scaled"`` keeps only the scaling).
 
 **Run directory** ``out``::
 
@@ -48,7 +50,12 @@ from infoseek.baselines.callbacks import (
     truncate_curve,
 )
 from infoseek.baselines.evaluation import evaluation_seeds
-from infoseek.baselines.features import ScaledObservationExtractor, observation_scaling
+from infoseek.baselines.features import (
+    EgocentricObservationExtractor,
+    ScaledObservationExtractor,
+    egocentric_layout,
+    observation_scaling,
+)
 from infoseek.baselines.policy import ALGORITHMS, CONFIG_FILE, MODEL_FILE
 from infoseek.baselines.vec_env import make_training_vec_env
 from infoseek.envs import make, registry
@@ -106,7 +113,9 @@ DEFAULT_HYPERPARAMETERS: dict[str, dict[str, Any]] = {
 
 _CHECKPOINT_PATTERN = re.compile(r"^model_(\d+)_steps\.zip$")
 #: Config keys that must match for a run directory to be resumed.
-_RESUME_KEYS = ("algo", "env_id", "n_agents", "action_type")
+_RESUME_KEYS = ("algo", "env_id", "n_agents", "action_type", "features")
+#: Values of ``TrainingConfig.features``.
+FEATURES = ("egocentric", "scaled")
 
 
 @dataclass(frozen=True)
@@ -130,6 +139,9 @@ class TrainingConfig:
         eval_episodes: Seeded episodes per evaluation.
         checkpoint_freq: Timesteps between checkpoints (0: none).
         torch_threads: ``torch.set_num_threads`` during training (None: leave as is).
+        features: Observation features inside the network: ``"egocentric"`` (scaled
+            observation plus body-frame geometry) or ``"scaled"`` (the scaled observation
+            only); see :mod:`infoseek.baselines.features`.
     """
 
     algo: str = "ppo"
@@ -146,6 +158,7 @@ class TrainingConfig:
     eval_episodes: int = 5
     checkpoint_freq: int = 50_000
     torch_threads: int | None = 1
+    features: str = "egocentric"
 
     def __post_init__(self) -> None:
         algo = str(self.algo).lower()
@@ -158,6 +171,8 @@ class TrainingConfig:
             raise ValueError(
                 f"action_type must be 'continuous' or 'discrete', got {self.action_type!r}"
             )
+        if self.features not in FEATURES:
+            raise ValueError(f"features must be one of {list(FEATURES)}, got {self.features!r}")
         if algo != "ppo" and self.action_type != "continuous":
             raise ValueError(f"algo {algo!r} needs action_type='continuous' (PPO handles both)")
         for name, minimum in (
@@ -273,6 +288,7 @@ def _check_resumable(out: Path, config: TrainingConfig) -> None:
     if not config_path.is_file():
         return
     saved = json.loads(config_path.read_text())
+    saved.setdefault("features", "scaled")  # runs from before the option had scaled features
     for key in _RESUME_KEYS:
         if saved.get(key) != getattr(config, key):
             raise ValueError(
@@ -301,10 +317,15 @@ def _build_model(config: TrainingConfig, vec_env: Any, probe_env: Any, out: Path
     hyper = config.full_hyperparameters()
     net_arch = list(hyper.pop("net_arch"))
     offset, scale = observation_scaling(probe_env)
+    extractor_kwargs: dict[str, Any] = {"offset": offset, "scale": scale}
+    extractor: type[ScaledObservationExtractor] = ScaledObservationExtractor
+    if config.features == "egocentric":
+        extractor = EgocentricObservationExtractor
+        extractor_kwargs["layout"] = egocentric_layout(probe_env)
     policy_kwargs = {
         "net_arch": net_arch,
-        "features_extractor_class": ScaledObservationExtractor,
-        "features_extractor_kwargs": {"offset": offset, "scale": scale},
+        "features_extractor_class": extractor,
+        "features_extractor_kwargs": extractor_kwargs,
     }
     return ALGORITHMS[config.algo](
         "MlpPolicy",

@@ -67,6 +67,13 @@ def add_train_arguments(parser: argparse.ArgumentParser) -> None:
         default="continuous",
         help="action space (sac/td3: continuous only)",
     )
+    parser.add_argument(
+        "--features",
+        choices=("egocentric", "scaled"),
+        default="egocentric",
+        help="observation features inside the network: scaled observation plus body-frame "
+        "geometry (default), or the scaled observation only",
+    )
     add_environment_overrides(parser)
     parser.add_argument(
         "--hyper",
@@ -133,6 +140,7 @@ def run_train(args: argparse.Namespace) -> int:
         eval_episodes=args.eval_episodes,
         checkpoint_freq=args.checkpoint_freq,
         torch_threads=args.torch_threads,
+        features=args.features,
     )
     print(
         f"train {config.algo} on {config.env_id} ({config.n_agents} agents, "

@@ -24,7 +24,9 @@ from infoseek.baselines import (  # noqa: E402
     train,
 )
 from infoseek.baselines.features import (  # noqa: E402
+    EgocentricObservationExtractor,
     ScaledObservationExtractor,
+    egocentric_layout,
     observation_scaling,
 )
 from infoseek.baselines.training import find_resume_point  # noqa: E402
@@ -245,6 +247,8 @@ def test_config_validation():
         TrainingConfig(algo="ppo", hyperparameters={"buffer_size": 10})
     with pytest.raises(ValueError, match="env_kwargs"):
         TrainingConfig(env_kwargs={"n_agents": 3})
+    with pytest.raises(ValueError, match="features"):
+        TrainingConfig(features="pixels")
 
 
 def test_training_vec_env_filters_infos_and_marks_truncation():
@@ -314,6 +318,85 @@ def test_observation_scaling_maps_domain_to_unit_box():
     np.testing.assert_allclose(features[0, layout["others_relative_positions"]], 0.0, atol=1e-6)
     with pytest.raises(ValueError, match="scale"):
         ScaledObservationExtractor(env.observation_space("vehicle_0"), offset, [0.0] * len(scale))
+
+
+def _egocentric_by_hand(observation: np.ndarray, layout: dict, n_agents: int) -> np.ndarray:
+    """The appended egocentric entries of one observation, written out per entry."""
+    x, y, heading = (float(v) for v in observation[:3])
+    half = 20.0
+    c, s = np.cos(heading), np.sin(heading)
+
+    def body(dx: float, dy: float) -> list[float]:  # rotate by -heading, then scale
+        return [(c * dx + s * dy) / half, (-s * dx + c * dy) / half]
+
+    ex, ey = observation[layout["mmse_estimate"]]
+    entries = [c, s, *body(ex - x, ey - y), np.hypot(ex - x, ey - y) / np.hypot(half, half)]
+    others = observation[layout["others_relative_positions"]].reshape(n_agents - 1, 2)
+    for dx, dy in others:
+        entries += body(dx, dy)
+    entries += [1.0 / (1.0 + np.hypot(dx, dy)) for dx, dy in others]
+    entries += body(20.0 - x, 20.0 - y)
+    masses = observation[layout["belief_grid"]].reshape(8, 8)
+    masses = masses / masses.sum()
+    centres = (np.arange(8) + 0.5) * 5.0
+    mass_x, mass_y = masses.sum(axis=1), masses.sum(axis=0)
+    for marginal in (mass_x, mass_y):
+        mean = marginal @ centres
+        entries.append(np.sqrt(marginal @ (centres - mean) ** 2) / half)
+    return np.array(entries)
+
+
+def test_egocentric_features_match_hand_computation():
+    env = envs.make("bearings_v0", n_agents=3, n_particles=300)
+    offset, scale = observation_scaling(env)
+    extractor = EgocentricObservationExtractor(
+        env.observation_space("vehicle_0"), offset, scale, egocentric_layout(env)
+    )
+    layout = env.unwrapped.observation_layout
+    rng = np.random.default_rng(5)
+    observations = []
+    for seed in range(4):
+        obs, _ = env.reset(seed=seed)
+        for _ in range(rng.integers(0, 6)):
+            obs, *_ = env.step({a: rng.uniform(-0.5, 0.5, size=1) for a in env.agents})
+        observations += list(obs.values())
+    batch = np.stack(observations).astype(np.float32)
+    features = extractor(torch.as_tensor(batch)).numpy()
+    assert features.shape == (len(batch), extractor.features_dim)
+    scaled = ScaledObservationExtractor(env.observation_space("vehicle_0"), offset, scale)
+    np.testing.assert_allclose(features[:, :73], scaled(torch.as_tensor(batch)).numpy())
+    for observation, row in zip(batch, features, strict=True):
+        expected = _egocentric_by_hand(observation.astype(np.float64), layout, 3)
+        np.testing.assert_allclose(row[73:], expected, atol=2e-5)
+
+
+def test_egocentric_features_are_rotation_equivariant():
+    """Rotating the whole scene about the vehicle leaves the body-frame entries unchanged."""
+    env = envs.make("bearings_v0", n_agents=2, n_particles=100)
+    offset, scale = observation_scaling(env)
+    extractor = EgocentricObservationExtractor(
+        env.observation_space("vehicle_0"), offset, scale, egocentric_layout(env)
+    )
+    layout = env.unwrapped.observation_layout
+    base = np.zeros(71, np.float32)
+    base[0:3] = [10.0, 12.0, 0.3]
+    base[layout["others_relative_positions"]] = [3.0, -1.0]
+    base[layout["mmse_estimate"]] = [25.0, 18.0]
+    base[layout["belief_grid"]] = 1.0 / 64
+    turned = base.copy()
+    angle = 1.1
+    rotation = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    turned[2] = 0.3 + angle
+    turned[layout["others_relative_positions"]] = rotation @ [3.0, -1.0]
+    turned[layout["mmse_estimate"]] = [10.0, 12.0] + rotation @ [15.0, 6.0]
+    features = extractor(torch.as_tensor(np.stack([base, turned]))).numpy()
+    ahead_and_others = np.r_[73:76, 76:79]  # estimate (body, distance), other (body, proximity)
+    np.testing.assert_allclose(
+        features[0, ahead_and_others], features[1, ahead_and_others], atol=1e-5
+    )
+    with pytest.raises(ValueError, match="beyond"):
+        bad = {**egocentric_layout(env), "estimate_start": 70}
+        EgocentricObservationExtractor(env.observation_space("vehicle_0"), offset, scale, bad)
 
 
 def test_cli_train_function(tmp_path, capsys):
