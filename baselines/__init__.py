@@ -7,6 +7,8 @@ supersuit, torch, tensorboard); they are imported on first attribute access, so
 * :func:`load_policy` (``path, env=None, *, seed=None, deterministic=True``) -> a
   :class:`TrainedPolicy` with the planners' ``act(observations, infos)``; also the hook of
   ``infoseek bench --policy DIR/model.zip``.
+* :func:`shipped_model` -> path of a model trained by us and installed with the package
+  (``load_policy(shipped_model(), env)``: PPO on ``bearings_v0`` with 4 agents).
 * :func:`train` with a :class:`TrainingConfig` -> run directory with ``model.zip``,
   ``config.json``, the ``eval.csv`` training curve, checkpoints and TensorBoard logs
   (:mod:`infoseek.baselines.training`).
@@ -30,6 +32,7 @@ __all__ = [
     "evaluate_policy",
     "load_policy",
     "make_training_vec_env",
+    "shipped_model",
     "train",
 ]
 
@@ -37,6 +40,7 @@ _LAZY_ATTRIBUTES = {
     "ALGORITHMS": "infoseek.baselines.policy",
     "TrainedPolicy": "infoseek.baselines.policy",
     "load_policy": "infoseek.baselines.policy",
+    "shipped_model": "infoseek.baselines.policy",
     "DEFAULT_HYPERPARAMETERS": "infoseek.baselines.training",
     "TrainingConfig": "infoseek.baselines.training",
     "TrainingResult": "infoseek.baselines.training",

@@ -43,12 +43,38 @@ __all__ = [
     "load_policy",
     "read_run_config",
     "resolve_model_path",
+    "shipped_model",
 ]
 
 #: Algorithm name -> Stable-Baselines3 class.
 ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC, "td3": TD3}
 MODEL_FILE = "model.zip"
 CONFIG_FILE = "config.json"
+#: Trained models installed with the package: ``SHIPPED_MODELS_DIR/<name>/`` holds
+#: ``model.zip``, ``config.json`` (how it was trained) and ``eval.csv`` (its training curve).
+SHIPPED_MODELS_DIR = Path(__file__).resolve().parent / "models"
+DEFAULT_SHIPPED_MODEL = "ppo_bearings_v0_4agents"
+
+
+def shipped_model(name: str = DEFAULT_SHIPPED_MODEL) -> Path:
+    """Path of the ``model.zip`` of a model shipped with infoseek.
+
+    ``load_policy(shipped_model(), env)`` gives the PPO policy trained on ``bearings_v0`` with 4
+    agents (the README's RL section says how it was trained and how it compares).
+
+    Args:
+        name: Directory name under :data:`SHIPPED_MODELS_DIR`.
+
+    Raises:
+        ValueError: No shipped model of that name (the message lists the available ones).
+    """
+    path = SHIPPED_MODELS_DIR / name / MODEL_FILE
+    if not path.is_file():
+        available = sorted(
+            p.name for p in SHIPPED_MODELS_DIR.glob("*") if (p / MODEL_FILE).is_file()
+        )
+        raise ValueError(f"no shipped model {name!r}; available: {available}")
+    return path
 
 
 def resolve_model_path(path: str | Path) -> Path:

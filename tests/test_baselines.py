@@ -21,6 +21,7 @@ from infoseek.baselines import (  # noqa: E402
     evaluate_policy,
     load_policy,
     make_training_vec_env,
+    shipped_model,
     train,
 )
 from infoseek.baselines.features import (  # noqa: E402
@@ -41,7 +42,6 @@ TINY_HYPER = {
     "ppo": {"n_steps": 50, "batch_size": 50, "n_epochs": 2},
     "sac": {"learning_starts": 50, "batch_size": 32, "buffer_size": 2_000},
 }
-SHIPPED_MODEL = Path(__file__).resolve().parents[1] / "baselines/models/ppo_bearings_v0_4agents"
 
 
 def tiny_config(algo: str, action_type: str, timesteps: int = 400, **overrides) -> TrainingConfig:
@@ -430,13 +430,18 @@ localise the target (mean final posterior mass 0.995 over seeds 0..49), so the f
 compared after 20 steps, where it still separates policies (same spaces, shorter episode)."""
 
 
-@pytest.mark.skipif(
-    not (SHIPPED_MODEL / "model.zip").is_file(),
-    reason=f"no shipped model yet at {SHIPPED_MODEL / 'model.zip'} (the lead adds it after the "
-    "one-hour training run)",
-)
 def test_shipped_model_beats_random_policy():
     env = envs.make("bearings_v0", n_agents=4, max_cycles=SHIPPED_HORIZON)
-    trained = evaluate_policy(load_policy(SHIPPED_MODEL / "model.zip", env), env, range(50))
+    trained = evaluate_policy(load_policy(shipped_model(), env), env, range(50))
     random = evaluate_policy(RandomPolicy.from_env(env, seed=0), env, range(50))
     assert trained.final_posterior_mass.mean() > random.final_posterior_mass.mean()
+
+
+def test_shipped_model_lookup():
+    path = shipped_model()
+    assert path.name == "model.zip"
+    config = json.loads(path.with_name("config.json").read_text())
+    assert (config["algo"], config["env_id"], config["n_agents"]) == ("ppo", "bearings_v0", 4)
+    assert config["trained_timesteps"] >= config["timesteps"]
+    with pytest.raises(ValueError, match="available"):
+        shipped_model("no_such_model")
