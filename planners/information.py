@@ -728,6 +728,14 @@ def _pose_windows(
         nearest_float = np.floor(relative + 0.5)
         delta = relative - nearest_float
         nearest = nearest_float.astype(np.intp)
+        # When the predictions span more than half a period the arc measured from the first
+        # one can miss the lowest few: they wrap to ``relative < 1/2`` and their stencil would
+        # reach node -1. Moving such a pose's window one node down keeps every prediction at
+        # its place on the circle (node ``j`` of the window is global node ``start + j mod Q``).
+        wrapped = nearest.min(axis=1) == 0
+        if wrapped.any():
+            start[wrapped] -= 1
+            nearest[wrapped] += 1
         targets = nearest[..., None] + offsets
     else:
         np.clip(position, 0.0, q - 1.0, out=position)

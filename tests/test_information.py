@@ -402,3 +402,49 @@ def test_window_arc_contains_every_prediction_across_the_seam():
     centre_nodes = (start[:, None] + (targets * weights).sum(axis=2)) * kernel.spacing
     residual = (centre_nodes + kernel.low - np.stack([seam, middle]) + np.pi) % (2 * np.pi)
     np.testing.assert_allclose(residual - np.pi, 0.0, atol=1e-9)
+
+
+def test_window_of_an_arc_wider_than_half_a_period_starting_far_from_the_first_prediction():
+    """Regression: bearing spreads over more than half the circle whose first prediction lies
+    near the top of the arc left the lowest predictions' stencils at window node -1 (a crash in
+    the windowed pair histogram, seen in trial pairwise/agents=3/791 of ``reproduce fig1``)."""
+    from infoseek.planners.information import (
+        _kernel,
+        _pose_windows,
+        _windowed_pair_entropies,
+        _WindowSide,
+    )
+
+    sensor = BearingSensor(sigma=0.1)
+    kernel = _kernel(sensor, 128)
+    rng = np.random.default_rng(8)
+    period = 2.0 * np.pi
+    q = kernel.n_points
+    # In grid nodes: one prediction 0.1 above a node k, the first one more than half a period
+    # above it (so the arc measured from the first wraps it), the rest from k + 1.1 to k + 80
+    # (an arc of 80 of 128 nodes: the window plus the kernel support fits in one period).
+    bottom = rng.integers(0, q, 6) + 0.1
+    nodes = bottom[:, None] + rng.uniform(1.0, 79.9, (6, 300))
+    nodes[:, 0] = bottom + 0.5 * q + 0.4
+    nodes[:, 1] = bottom
+    nodes[:, 2] = bottom + 1.0  # the lowest of the rest: the window starts at node k
+    predictions = (kernel.low + nodes * kernel.spacing + np.pi) % period - np.pi
+    start, targets, weights, widths = _pose_windows(kernel, predictions)
+    assert np.all(targets >= 0) and np.all(targets < widths[:, None, None])
+    centre_nodes = (start[:, None] + (targets * weights).sum(axis=2)) * kernel.spacing
+    residual = (centre_nodes + kernel.low - predictions + np.pi) % period - np.pi
+    np.testing.assert_allclose(residual, 0.0, atol=1e-9)
+    # The windowed pair entropies still equal the full circular grid.
+    particle_weights = rng.gamma(1.0, size=300)
+    particle_weights /= particle_weights.sum()
+    partners = (rng.uniform(-0.4, 0.4, (2, 300)) + 1.0 + np.pi) % period - np.pi
+    side_a, side_b = _WindowSide(kernel, predictions), _WindowSide(kernel, partners)
+    assert side_a.fits and side_b.fits
+    windowed = _windowed_pair_entropies(kernel, side_a, side_b, particle_weights)
+    index_a, weight_a = kernel.assign(predictions)
+    index_b, weight_b = kernel.assign(partners)
+    full, _ = kernel.entropies(
+        [(index_a[:, None], weight_a[:, None]), (index_b[None], weight_b[None])],
+        particle_weights,
+    )
+    np.testing.assert_allclose(windowed, full, atol=1e-4, rtol=0)
