@@ -75,6 +75,17 @@ def _check_pairing(records: Sequence[Mapping[str, Any]]) -> None:
             )
 
 
+def format_p_value(p: float) -> str:
+    """``"= 0.0123"``-style text of a p-value; one that underflowed to 0 prints as a bound.
+
+    Args:
+        p: The p-value.
+    """
+    if p <= 0.0:  # below the smallest normal double: say so instead of claiming p = 0
+        return f"< {np.finfo(np.float64).tiny:.3g}"
+    return f"= {p:.3g}"
+
+
 def wilcoxon_faster(slower: np.ndarray, faster: np.ndarray) -> tuple[float, float, float]:
     """One-sided Wilcoxon signed-rank test that ``faster`` localises sooner than ``slower``.
 
@@ -104,7 +115,7 @@ def _single_vs_pairwise(
     return (
         f"{label} (n_v = {n_agents}, pairwise faster than single): {data.shape[0]} paired "
         f"trials, mean ttl single - pairwise = {mean:+.2f} +- {stderr:.2f} steps, one-sided "
-        f"Wilcoxon p = {p:.3g} -> {verdict} at alpha = {alpha}"
+        f"Wilcoxon p {format_p_value(p)} -> {verdict} at alpha = {alpha}"
     )
 
 
@@ -141,8 +152,8 @@ def run_claims(args: argparse.Namespace) -> int:
         )
         print(
             f"Claim B (more vehicles localise faster, pairwise): {data.shape[0]} paired trials, "
-            f"mean ttl {means}; Page's L = {page.statistic:.1f}, p = {page.pvalue:.3g} -> "
-            f"{verdict} at alpha = {args.alpha}"
+            f"mean ttl {means}; Page's L = {page.statistic:.1f}, "
+            f"p {format_p_value(page.pvalue)} -> {verdict} at alpha = {args.alpha}"
         )
         for fewer, more in zip(sizes[:-1], sizes[1:], strict=True):
             pair = _paired(
@@ -154,7 +165,7 @@ def run_claims(args: argparse.Namespace) -> int:
             mean, stderr, p = wilcoxon_faster(pair[:, 0], pair[:, 1])
             print(
                 f"  n_v = {more} vs {fewer}: mean ttl difference {mean:+.2f} +- {stderr:.2f} "
-                f"steps, one-sided Wilcoxon p = {p:.3g}"
+                f"steps, one-sided Wilcoxon p {format_p_value(p)}"
             )
     else:
         print("Claim B: needs pairwise groups with at least two fleet sizes")

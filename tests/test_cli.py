@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from infoseek.experiments.claims import format_p_value
 from infoseek.experiments.cli import main
 from infoseek.experiments.plot import fig1_panels, mass_curves
 from infoseek.experiments.store import MANIFEST_NAME, TRIALS_NAME
@@ -255,3 +256,9 @@ def test_bench_accepts_a_planner_factory_path(tmp_path: Path) -> None:
     (record,) = [json.loads(line) for line in (out / TRIALS_NAME).read_text().splitlines()]
     assert record["planner"] == factory and len(record["plan_time"]) == 2
     assert main([*argv, "--planner", "infoseek.planners:NoSuchPlanner.from_env"]) == 2
+
+
+def test_p_values_that_underflow_print_as_a_bound() -> None:
+    assert format_p_value(0.0123) == "= 0.0123"
+    assert format_p_value(4.2e-87) == "= 4.2e-87"
+    assert format_p_value(0.0) == "< 2.23e-308"  # Page's normal approximation underflows
