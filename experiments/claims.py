@@ -35,6 +35,7 @@ import numpy as np
 from scipy import stats
 
 from infoseek.experiments.bench import format_summary, summarise, time_to_localise
+from infoseek.experiments.plot import mass_curves
 from infoseek.experiments.store import read_manifest, read_records
 
 
@@ -42,6 +43,12 @@ def add_claims_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``infoseek claims``."""
     parser.add_argument("directory", type=Path, help="results directory of a bench/reproduce run")
     parser.add_argument("--alpha", type=float, default=0.05, help="significance level (0.05)")
+    parser.add_argument(
+        "--trials",
+        type=int,
+        default=None,
+        help="use only trials 0..N-1 of every group (default: all stored trials)",
+    )
 
 
 def times_to_localise(
@@ -119,12 +126,40 @@ def _single_vs_pairwise(
     )
 
 
+BAND_STEPS = (5, 10, 15, 20)
+"""Steps at which :func:`mass_bands` reports the Fig. 1 curves' means and quartile bands."""
+
+
+def mass_bands(records: Sequence[Mapping[str, Any]], groups: Sequence[tuple[str, int]]) -> str:
+    """One line per group: mean and interquartile range of agent 0's posterior mass at the
+    steps of :data:`BAND_STEPS` (the numbers behind the Fig. 1 curves and quartile bars).
+
+    Args:
+        records: Trial records.
+        groups: ``(planner, n_agents)`` groups to report, in order.
+    """
+    curves = mass_curves(records)
+    lines = []
+    for planner, n_agents in groups:
+        matrix = curves[(planner, n_agents)]
+        cells = []
+        for step in (t for t in BAND_STEPS if t < matrix.shape[1]):
+            q25, q75 = np.nanpercentile(matrix[:, step], [25, 75])
+            cells.append(f"step {step}: {np.nanmean(matrix[:, step]):.3f} ({q75 - q25:.3f})")
+        lines.append(f"    {planner}/{n_agents} mass mean (IQR): " + ", ".join(cells))
+    return "\n".join(lines)
+
+
 def run_claims(args: argparse.Namespace) -> int:
     """Print the summary table and the tests of claims A and B; returns the exit code."""
     if not 0.0 < args.alpha < 1.0:
         raise ValueError(f"--alpha must be in (0, 1), got {args.alpha}")
+    if args.trials is not None and args.trials < 1:
+        raise ValueError(f"--trials must be a positive number of trials, got {args.trials}")
     manifest = read_manifest(args.directory)
     records = read_records(args.directory)
+    if args.trials is not None:
+        records = [r for r in records if int(r["trial"]) < args.trials]
     if not records:
         raise ValueError(f"{args.directory}: the store holds no trials")
     steps = int(manifest["config"]["steps"])
@@ -135,6 +170,7 @@ def run_claims(args: argparse.Namespace) -> int:
 
     if {("single", 4), ("pairwise", 4)} <= groups:
         print(_single_vs_pairwise(records, 4, steps, args.alpha, "Claim A"))
+        print(mass_bands(records, [("single", 4), ("pairwise", 4)]))
     else:
         print("Claim A: needs groups single/4 and pairwise/4")
     for n in sorted(n for planner, n in groups if planner == "single" and n != 4):

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from infoseek.experiments.claims import format_p_value
+from infoseek.experiments.claims import format_p_value, mass_bands
 from infoseek.experiments.cli import main
 from infoseek.experiments.plot import fig1_panels, mass_curves
 from infoseek.experiments.store import MANIFEST_NAME, TRIALS_NAME
@@ -235,6 +235,13 @@ def test_claims_detects_a_paired_improvement_and_its_absence(tmp_path: Path, cap
     assert "not supported" in out.split("Claim A")[1].split("\n")[0]
     assert "not supported" in out.split("Claim B")[1].split("\n")[0]
 
+    # --trials N keeps trials 0..N-1 of every group; a non-positive N is refused.
+    assert main(["claims", str(tmp_path / "holds"), "--trials", "12"]) == 0
+    out = capsys.readouterr().out
+    assert "Claim A (n_v = 4, pairwise faster than single): 12 paired trials" in out
+    assert main(["claims", str(tmp_path / "holds"), "--trials", "0"]) == 2
+    assert "--trials must be a positive" in capsys.readouterr().err
+
 
 def test_claims_rejects_unpaired_stores(tmp_path: Path, capsys) -> None:
     _synthetic_store(tmp_path / "s", {("single", 4): [5, 6], ("pairwise", 4): [4, 5]}, steps=20)
@@ -262,3 +269,53 @@ def test_p_values_that_underflow_print_as_a_bound() -> None:
     assert format_p_value(0.0123) == "= 0.0123"
     assert format_p_value(4.2e-87) == "= 4.2e-87"
     assert format_p_value(0.0) == "< 2.23e-308"  # Page's normal approximation underflows
+
+
+def test_mass_bands_are_the_mean_and_interquartile_range_per_step() -> None:
+    rng = np.random.default_rng(4)
+    series = rng.uniform(0.0, 1.0, (9, 21))
+    records = [{"planner": "single", "n_agents": 4, "mass_agent0": row.tolist()} for row in series]
+    line = mass_bands(records, [("single", 4)])
+    assert line.strip().startswith("single/4 mass mean (IQR):")
+    for step in (5, 10, 15, 20):
+        column = np.sort(series[:, step])
+        # 9 values: the 25th and 75th percentiles are the 3rd and 7th order statistics.
+        expected = f"step {step}: {column.mean():.3f} ({column[6] - column[2]:.3f})"
+        assert expected in line
+
+
+def test_verify_reruns_stored_trials_and_names_the_ones_not_reproduced(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "run"
+    tiny = ["--steps", "3", "--particles", "100", "--workers", "1"]
+    args = ["bench", "--planner", "single", "--agents", "2", "--trials", "3", *tiny]
+    assert main([*args, "--out", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["verify", str(out), "--workers", "1"]) == 0
+    assert "3 stored trial(s) rerun, 0 not reproduced" in capsys.readouterr().out
+
+    # Tamper with a result field of trial 1 and a timing field of trial 2: only the result counts.
+    lines = (out / TRIALS_NAME).read_text().splitlines()
+    records = [json.loads(line) for line in lines]
+    records[1]["mass_agent0"][-1] = records[1]["mass_agent0"][-1] / 2 + 0.01
+    records[2]["plan_time"] = [t + 1.0 for t in records[2]["plan_time"]]
+    (out / TRIALS_NAME).write_text("".join(json.dumps(r) + "\n" for r in records))
+    before = _snapshot(out)
+    assert main(["verify", str(out), "--workers", "1"]) == 1
+    report = capsys.readouterr().out
+    assert f"{records[1]['key']}: differs in mass_agent0" in report
+    assert records[2]["key"] not in report and records[0]["key"] not in report
+    assert "3 stored trial(s) rerun, 1 not reproduced" in report
+    assert _snapshot(out) == before  # verify never writes to the store
+
+    # --trials / --group select what is rerun.
+    assert main(["verify", str(out), "--trials", "1", "--group", "single/2", "--workers", "1"]) == 0
+    assert "1 stored trial(s) rerun, 0 not reproduced" in capsys.readouterr().out
+    for bad, message in (
+        (["--group", "single"], "--group must look like PLANNER/AGENTS"),
+        (["--group", "pairwise/4"], "no stored trials of group(s) pairwise/4"),
+        (["--trials", "0"], "--trials must be a positive"),
+    ):
+        assert main(["verify", str(out), *bad, "--workers", "1"]) == 2
+        assert message in capsys.readouterr().err
