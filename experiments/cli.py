@@ -16,6 +16,8 @@ Subcommands:
   settings (:mod:`infoseek.experiments.reproduce`).
 * ``infoseek claims DIR``: paired statistical tests of the paper's Fig. 1 claims on stored
   trials (:mod:`infoseek.experiments.claims`).
+* ``infoseek verify DIR``: rerun stored trials from their seeds and report the records the
+  installed code does not reproduce (:mod:`infoseek.experiments.verify`).
 * ``infoseek train``: train one parameter-shared RL policy (PPO, SAC or TD3) on an environment's
   entropy-reduction reward (:mod:`infoseek.experiments.train`, needs the ``rl`` extra).
 
@@ -289,6 +291,56 @@ def run_reproduce_command(args: argparse.Namespace) -> int:
     return 0
 
 
+def add_verify_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``infoseek verify``."""
+    parser.add_argument("directory", type=Path, help="results directory of a bench/reproduce run")
+    parser.add_argument(
+        "--trials",
+        type=int,
+        default=None,
+        help="rerun only trials 0..N-1 of every group (default: every stored trial)",
+    )
+    parser.add_argument(
+        "--group",
+        action="append",
+        default=None,
+        metavar="PLANNER/AGENTS",
+        help="rerun only this group, e.g. --group single/4 (repeatable; default: all)",
+    )
+    _add_execution_arguments(parser)
+
+
+def _group(text: str) -> tuple[str, int]:
+    planner, _, agents = text.rpartition("/")
+    if not planner or not agents.isdigit():
+        raise ValueError(f"--group must look like PLANNER/AGENTS (e.g. single/4), got {text!r}")
+    return planner, int(agents)
+
+
+def run_verify_command(args: argparse.Namespace) -> int:
+    """``infoseek verify``: rerun stored trials; exit status 1 if any record is not reproduced."""
+    from infoseek.experiments.verify import verify_store
+
+    backend, workers = _execution(args)
+    groups = None if args.group is None else [_group(text) for text in args.group]
+    result = verify_store(
+        args.directory,
+        trials=args.trials,
+        groups=groups,
+        backend=backend,
+        workers=workers,
+        address=args.address,
+        progress=False if args.no_progress else None,
+    )
+    for key, fields in result.differing.items():
+        print(f"{key}: differs in {', '.join(fields)}")
+    print(
+        f"{result.checked} stored trial(s) rerun, "
+        f"{len(result.differing)} not reproduced by the installed code"
+    )
+    return 1 if result.differing else 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``infoseek`` command."""
     parser = argparse.ArgumentParser(
@@ -334,6 +386,12 @@ def build_parser() -> argparse.ArgumentParser:
             "paired statistical tests of the paper's Fig. 1 claims on stored trials",
             add_claims_arguments,
             run_claims,
+        ),
+        (
+            "verify",
+            "rerun stored trials from their seeds and compare them with their records",
+            add_verify_arguments,
+            run_verify_command,
         ),
         (
             "train",
