@@ -346,13 +346,19 @@ def _egocentric_by_hand(observation: np.ndarray, layout: dict, n_agents: int) ->
     return np.array(entries)
 
 
-def test_egocentric_features_match_hand_computation():
-    env = envs.make("bearings_v0", n_agents=3, n_particles=300)
+def _egocentric_extractor(n_agents: int, n_particles: int):
+    """``(env, extractor, observation layout)`` for a ``bearings_v0`` of ``n_agents``."""
+    env = envs.make("bearings_v0", n_agents=n_agents, n_particles=n_particles)
     offset, scale = observation_scaling(env)
     extractor = EgocentricObservationExtractor(
         env.observation_space("vehicle_0"), offset, scale, egocentric_layout(env)
     )
-    layout = env.unwrapped.observation_layout
+    return env, extractor, env.unwrapped.observation_layout
+
+
+def test_egocentric_features_match_hand_computation():
+    env, extractor, layout = _egocentric_extractor(3, 300)
+    offset, scale = observation_scaling(env)
     rng = np.random.default_rng(5)
     observations = []
     for seed in range(4):
@@ -372,12 +378,8 @@ def test_egocentric_features_match_hand_computation():
 
 def test_egocentric_features_are_rotation_equivariant():
     """Rotating the whole scene about the vehicle leaves the body-frame entries unchanged."""
-    env = envs.make("bearings_v0", n_agents=2, n_particles=100)
+    env, extractor, layout = _egocentric_extractor(2, 100)
     offset, scale = observation_scaling(env)
-    extractor = EgocentricObservationExtractor(
-        env.observation_space("vehicle_0"), offset, scale, egocentric_layout(env)
-    )
-    layout = env.unwrapped.observation_layout
     base = np.zeros(71, np.float32)
     base[0:3] = [10.0, 12.0, 0.3]
     base[layout["others_relative_positions"]] = [3.0, -1.0]
