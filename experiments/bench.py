@@ -533,6 +533,27 @@ class BenchResult:
     skipped: int
 
 
+def trial_progress_bar(total: int, desc: str, progress: bool | None, initial: int = 0) -> Any:
+    """A tqdm bar counting trials on stderr.
+
+    Args:
+        total: Trials in all.
+        desc: Label of the bar.
+        progress: Show it (``None``: only on a terminal).
+        initial: Trials already done.
+    """
+    from tqdm import tqdm
+
+    return tqdm(
+        total=total,
+        initial=initial,
+        unit="trial",
+        desc=desc,
+        disable=(not progress) if progress is not None else None,
+        file=sys.stderr,
+    )
+
+
 def run_bench(
     plan: BenchPlan,
     out: str | os.PathLike[str],
@@ -559,20 +580,11 @@ def run_bench(
         StoreConfigError: ``out`` holds another configuration (nothing is written).
         TrialFailedError: A trial raised; every trial finished before it is stored.
     """
-    from tqdm import tqdm
-
     specs = plan.specs()
     with ResultsStore(out, plan.config()) as store:
         missing = [spec for spec in specs if spec.key not in store]
         skipped = len(specs) - len(missing)
-        bar = tqdm(
-            total=len(specs),
-            initial=skipped,
-            unit="trial",
-            desc=f"bench {plan.env}",
-            disable=(not progress) if progress is not None else None,
-            file=sys.stderr,
-        )
+        bar = trial_progress_bar(len(specs), f"bench {plan.env}", progress, initial=skipped)
         ran = 0
         try:
             for _, record in execute(missing, backend=backend, workers=workers, address=address):

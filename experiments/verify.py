@@ -18,12 +18,11 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from infoseek.experiments.bench import TrialSpec, execute
+from infoseek.experiments.bench import TrialSpec, execute, trial_progress_bar
 from infoseek.experiments.store import encode_record, read_manifest, read_records
 
 #: Record fields that measure the machine, not the trial (left out of the comparison).
@@ -100,8 +99,6 @@ def verify_store(
     Raises:
         ValueError: ``trials`` is not positive, or a requested group is not stored.
     """
-    from tqdm import tqdm
-
     if trials is not None and trials < 1:
         raise ValueError(f"--trials must be a positive number of trials, got {trials}")
     config = read_manifest(directory)["config"]
@@ -123,13 +120,7 @@ def verify_store(
     }
     specs = [stored_trial_spec(config, record) for record in selected.values()]
     differing: dict[str, list[str]] = {}
-    bar = tqdm(
-        total=len(specs),
-        unit="trial",
-        desc="verify",
-        disable=(not progress) if progress is not None else None,
-        file=sys.stderr,
-    )
+    bar = trial_progress_bar(len(specs), "verify", progress)
     try:
         for spec, rerun in execute(specs, backend=backend, workers=workers, address=address):
             fields = differing_fields(selected[spec.key], rerun)
