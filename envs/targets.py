@@ -20,12 +20,13 @@ Target motion models propagate target hypotheses (particles) over one time step 
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
+
+from infoseek.envs.registries import Registry
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -327,10 +328,10 @@ class RandomWalkTarget:
         return f"RandomWalkTarget(position_std={self.position_std}, angle_std={self.angle_std})"
 
 
-TARGET_MOTION_REGISTRY: dict[str, Callable[..., TargetMotion]] = {
-    "stationary": StationaryTarget,
-    "random_walk": RandomWalkTarget,
-}
+#: Registry name -> target motion class.
+TARGET_MOTION_REGISTRY: Registry[TargetMotion] = Registry("target motion", TargetMotion)
+TARGET_MOTION_REGISTRY.register("stationary", StationaryTarget)
+TARGET_MOTION_REGISTRY.register("random_walk", RandomWalkTarget)
 
 
 def make_target_motion(spec: str | TargetMotion, **kwargs: Any) -> TargetMotion:
@@ -347,20 +348,4 @@ def make_target_motion(spec: str | TargetMotion, **kwargs: Any) -> TargetMotion:
         TypeError: ``kwargs`` given with an instance, or ``spec`` of the wrong type.
         ValueError: Unknown registry name.
     """
-    if isinstance(spec, str):
-        if spec not in TARGET_MOTION_REGISTRY:
-            raise ValueError(
-                f"spec: unknown target motion {spec!r}; "
-                f"valid names: {sorted(TARGET_MOTION_REGISTRY)}"
-            )
-        return TARGET_MOTION_REGISTRY[spec](**kwargs)
-    if isinstance(spec, TargetMotion):
-        if kwargs:
-            raise TypeError(
-                f"make_target_motion: keyword arguments {sorted(kwargs)} are not allowed with an "
-                "instance spec"
-            )
-        return spec
-    raise TypeError(
-        f"spec must be a target motion name or a TargetMotion instance, got {type(spec).__name__}"
-    )
+    return TARGET_MOTION_REGISTRY.make(spec, **kwargs)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from infoseek.envs.registries import Registry
 from infoseek.envs.sensors.base import AdditiveNoiseSensor, ObservationDomain, Sensor
 from infoseek.envs.sensors.beacon import BeaconSensor
 from infoseek.envs.sensors.bearing import BearingSensor
@@ -28,12 +29,10 @@ __all__ = [
     "make_sensor",
 ]
 
-#: Registry name -> sensor class.
-SENSOR_REGISTRY: dict[str, type] = {
-    BearingSensor.name: BearingSensor,
-    BeaconSensor.name: BeaconSensor,
-    RangeSensor.name: RangeSensor,
-}
+#: Registry name -> sensor class (``SENSOR_REGISTRY.register(name, cls)`` adds one).
+SENSOR_REGISTRY: Registry[Sensor] = Registry("sensor", Sensor)
+for _cls in (BearingSensor, BeaconSensor, RangeSensor):
+    SENSOR_REGISTRY.register(_cls.name, _cls)
 
 
 def make_sensor(spec: str | Sensor, **kwargs: Any) -> Sensor:
@@ -52,21 +51,4 @@ def make_sensor(spec: str | Sensor, **kwargs: Any) -> Sensor:
         TypeError: If ``kwargs`` are given with an instance, or ``spec`` is neither a name nor a
             :class:`Sensor`.
     """
-    if isinstance(spec, str):
-        try:
-            cls = SENSOR_REGISTRY[spec]
-        except KeyError:
-            raise ValueError(
-                f"make_sensor: unknown sensor {spec!r}; valid names: {sorted(SENSOR_REGISTRY)}"
-            ) from None
-        return cls(**kwargs)
-    if isinstance(spec, Sensor):
-        if kwargs:
-            raise TypeError(
-                "make_sensor: keyword arguments are only allowed with a registry name, got "
-                f"{sorted(kwargs)} together with an instance of {type(spec).__name__}"
-            )
-        return spec
-    raise TypeError(
-        f"make_sensor: spec must be a registry name or a Sensor instance, got {type(spec).__name__}"
-    )
+    return SENSOR_REGISTRY.make(spec, **kwargs)
