@@ -38,17 +38,20 @@ Step order (binding, see the project contract):
 Filter noise floor (``filter_max_snr``). The beliefs may evaluate the observations with a
 deliberately *wider* likelihood than the one that generates them, a standard "noise inflation"
 for particle filters whose sensor is far more precise than the particle spacing. With a cap
-``c``, a sensor whose ``log_likelihood`` accepts ``max_snr`` (the beacon receiver) is evaluated
-as if its noise were inflated wherever the signal-to-noise ratio ``rho = |H| / noise_std``
-exceeds ``c``, so no single reading's peak is narrower than ``~1/c`` rad. Near an avalanche
+``c``, a sensor that offers ``with_max_snr`` (the beacon receiver) is replaced, in every belief
+update, by ``sensor.with_max_snr(c)``: the receiver whose noise is inflated wherever the
+signal-to-noise ratio ``rho = |H| / noise_std`` exceeds ``c``, so no single reading's peak is
+narrower than ``~1/c`` rad. That model is the attribute :attr:`filter_sensor`; the planners
+read it (``EnvModel.from_env``), so they score candidates with exactly the likelihood the
+beliefs apply. Near an avalanche
 beacon ``rho ~ moment / r^3`` reaches ``10^3`` within a few units, and the exact posterior after
 one step of four readings is a blob of a few hundredths of a unit: a 2000-particle filter
 almost never has a particle inside it, so the particles far away (flat likelihood ``~1/pi``)
 take the mass and the estimate jumps away from a correct fix (measured: 2 of 20 seeded
 4-agent ``beacon_v0`` episodes localised with the exact likelihood, and 8000 particles did not
 help). The floor trades this unresolvable precision for a posterior the particles can
-represent; the measurements themselves (:meth:`~InformationSeekingEnv.step` step 4) and the
-planners' sensor model are unchanged. It is a deviation from the paper, which does not say how
+represent; the measurements themselves (:meth:`~InformationSeekingEnv.step` step 4) stay
+exact. It is a deviation from the paper, which does not say how
 its filter handled the near field. ``beacon_v0`` uses ``c = 5`` (angular std floor ~0.2 rad):
 with the pairwise planner 36 of 40 seeded episodes then end with at least 0.9 of every agent's
 mass within 1 unit of its estimate, each such estimate within 1 unit of the truth (``c = 20``:
@@ -153,35 +156,6 @@ def _readonly(array: np.ndarray) -> np.ndarray:
     return array
 
 
-class _NoiseFloorLikelihood:
-    """The filter's view of a sensor with a noise floor: ``log_likelihood(..., max_snr=c)``.
-
-    Args:
-        sensor: A sensor whose ``log_likelihood`` accepts the keyword ``max_snr``.
-        max_snr: The cap ``c > 0`` (module docstring, "Filter noise floor").
-
-    Raises:
-        ValueError: The sensor's ``log_likelihood`` has no ``max_snr`` keyword.
-    """
-
-    def __init__(self, sensor: Sensor, max_snr: float) -> None:
-        parameters = inspect.signature(sensor.log_likelihood).parameters
-        if "max_snr" not in parameters:
-            raise ValueError(
-                f"filter_max_snr needs a sensor whose log_likelihood accepts max_snr (e.g. "
-                f"'beacon'); sensor {sensor.name!r} does not: use filter_max_snr=None"
-            )
-        self.sensor = sensor
-        self.max_snr = float(max_snr)
-        self.name = sensor.name
-        self.obs_dim = sensor.obs_dim
-        self.pose_dim = sensor.pose_dim
-
-    def log_likelihood(self, z: FloatArray, poses: FloatArray, particles: FloatArray) -> FloatArray:
-        """``(..., N)`` floored log-likelihoods (the sensor's, with ``max_snr``)."""
-        return self.sensor.log_likelihood(z, poses, particles, max_snr=self.max_snr)
-
-
 def clustered_start_positions(n_agents: int, center: Sequence[float], spacing: float) -> FloatArray:
     """Positions of a compact square-ish grid of vehicles (the paper's close initial cluster).
 
@@ -261,10 +235,9 @@ class InformationSeekingEnv(ParallelEnv):
         tempering_ess: Belief progressive-correction floor in ``[0, 1)`` (0 disables; see
             :mod:`infoseek.envs.belief`).
         filter_max_snr: Filter noise floor (module docstring): ``None`` evaluates the exact
-            likelihood; a float ``c > 0`` passes ``max_snr=c`` to the sensor's
-            ``log_likelihood`` in every belief update (the sensor must accept it). The model
-            the beliefs use is the attribute ``filter_likelihood`` (the sensor itself when
-            ``None``).
+            likelihood; a float ``c > 0`` makes every belief update (and the planners) use
+            ``sensor.with_max_snr(c)`` (the sensor must offer it). The model the beliefs use is
+            the attribute ``filter_sensor`` (the sensor itself when ``None``).
         entropy_bins: Histogram grid of the belief entropy estimate (``None``: belief default).
         belief_grid: ``(gx, gy)`` coarse belief-mass grid in the observation.
         localization_radius: Radius (distance units, > 0) of the posterior-mass criterion.
@@ -360,12 +333,17 @@ class InformationSeekingEnv(ParallelEnv):
         # the likelihood model every belief update uses: the sensor, or its noise-floored view
         if filter_max_snr is None:
             self.filter_max_snr: float | None = None
-            self.filter_likelihood: Any = self.sensor
+            self.filter_sensor: Sensor = self.sensor
         else:
             self.filter_max_snr = _check_float(
                 filter_max_snr, "filter_max_snr", low=0.0, low_open=True
             )
-            self.filter_likelihood = _NoiseFloorLikelihood(self.sensor, self.filter_max_snr)
+            if not callable(getattr(self.sensor, "with_max_snr", None)):
+                raise ValueError(
+                    f"filter_max_snr needs a sensor that offers with_max_snr (e.g. 'beacon'); "
+                    f"sensor {self.sensor.name!r} does not: use filter_max_snr=None"
+                )
+            self.filter_sensor = self.sensor.with_max_snr(self.filter_max_snr)
         self.localization_radius = _check_float(
             localization_radius, "localization_radius", low=0.0, low_open=True
         )
@@ -720,9 +698,7 @@ class InformationSeekingEnv(ParallelEnv):
         for i, belief in enumerate(self._beliefs):
             received = reception[i]
             belief.predict(self.dt)
-            update = belief.update(
-                self.filter_likelihood, measurements[received], positions[received]
-            )
+            update = belief.update(self.filter_sensor, measurements[received], positions[received])
             self._recovered[i] = bool(update.recovered)
             belief.resample_if_needed()
             self._entropies[i] = belief.entropy()

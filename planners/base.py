@@ -47,12 +47,8 @@ from infoseek.planners.coordination import (
     horizon_separation_penalty,
     refine_control,
 )
-from infoseek.planners.information import PairwiseMIEvaluator
-from infoseek.planners.utilities import (
-    PlanningBelief,
-    single_node_utilities,
-    subsample_particles,
-)
+from infoseek.planners.information import METHODS, BeliefMI, MIEstimator, make_estimator
+from infoseek.planners.utilities import subsample_particles
 
 FloatArray = NDArray[np.float64]
 
@@ -85,7 +81,9 @@ class EnvModel:
     """The a-priori models a planner may know about an environment (no truth).
 
     Attributes:
-        sensor: The sensor model shared by all vehicles.
+        sensor: The measurement model the vehicles' beliefs apply (the environment's
+            ``filter_sensor``: for ``beacon_v0`` the receiver with its noise floor), so the
+            planners score candidates with exactly the likelihood the filters use.
         vehicle: The vehicle model shared by all vehicles.
         space: The target state space (search domain).
         dt: Time step.
@@ -136,7 +134,7 @@ class EnvModel:
         if base.action_type == "discrete" and discrete is None:
             raise ValueError("env: discrete action type without discrete_controls")
         return cls(
-            sensor=base.sensor,
+            sensor=getattr(base, "filter_sensor", base.sensor),
             vehicle=base.vehicle,
             space=base.space,
             dt=float(base.dt),
@@ -345,11 +343,12 @@ class PlannerConfig:
             reduced to at most this many equally weighted particles by systematic resampling
             with the planner's generator.
         seed: Seed of the planner's own generator (None: OS entropy).
-        mi_method: Mutual-information evaluation method passed to
-            :mod:`infoseek.planners.information` (``"auto"``: FFT for additive-noise sensors,
-            quantised bins for the beacon).
-        quadrature_points: Observation grid size ``n_points`` for the MI (None: the MI module's
-            default for the method).
+        mi_method: Mutual-information estimator (a name in
+            :data:`infoseek.planners.information.ESTIMATORS`, or ``"auto"``: ``"fft"`` for
+            additive-noise sensors, ``"fourier"`` for the beacon). ``"monte_carlo"`` draws from
+            the planner's generator.
+        quadrature_points: Observation grid size ``n_points`` of the estimator (None: the
+            estimator's default).
         grid_size: Candidate controls per control axis for continuous actions (None: 9 for a
             1-D control, 5 per axis for 2-D); discrete actions always use the env's table.
         alpha: Penalty update ``beta := alpha beta`` (0.5).
@@ -366,11 +365,9 @@ class PlannerConfig:
             (0.25 units), so that the inexact penalty's residual shortfall stays clear of the
             environment's constraint.
         refine: Continuous actions only: polish each vehicle's grid choice inside one grid
-            cell with a bounded scipy search on a cubic interpolant of the utility, sampled in
-            one batched call (True).
-        refine_evaluations: Budget of the scipy search per vehicle (8); a one-dimensional
-            control's cell is sampled at ``refine_evaluations + 1`` nodes (5 per axis for
-            several controls) in one batched utility call.
+            cell with a bounded scipy search on a cubic spline of the utility through the
+            candidate grid (values the coordination already computed; no further MI) (True).
+        refine_evaluations: Budget of the scipy search per vehicle (8).
         safety_horizon: Steps ``H`` over which the separation constraints (eq. 28) are imposed,
             each candidate's track predicted with its control held (3). ``H = 1`` is the
             paper's one-step constraint; fixed-speed airplanes closing at up to twice their
@@ -420,6 +417,8 @@ class PlannerConfig:
             raise ValueError(
                 f"quadrature_points must be None or >= 2, got {self.quadrature_points}"
             )
+        if not isinstance(self.mi_method, str) or self.mi_method not in METHODS:
+            raise ValueError(f"mi_method must be one of {list(METHODS)}, got {self.mi_method!r}")
         if self.grid_size is not None and self.grid_size < 2:
             raise ValueError(f"grid_size must be None or >= 2, got {self.grid_size}")
         if not (np.isfinite(self.separation_margin) and self.separation_margin >= 0):
@@ -444,12 +443,21 @@ class PlannerConfig:
             reciprocal=self.reciprocal,
         )
 
-    def mi_options(self) -> dict[str, Any]:
-        """Keyword options forwarded to the MI functions."""
-        options: dict[str, Any] = {"method": self.mi_method}
-        if self.quadrature_points is not None:
-            options["n_points"] = self.quadrature_points
-        return options
+    def make_estimator(
+        self, sensor: Sensor, n_observations: int, rng: np.random.Generator
+    ) -> MIEstimator:
+        """The planner's MI estimator for ``sensor`` (``rng`` feeds ``"monte_carlo"``).
+
+        Raises:
+            TypeError: ``mi_method`` needs a sensor method the sensor lacks.
+        """
+        return make_estimator(
+            self.mi_method,
+            sensor,
+            n_observations=n_observations,
+            n_points=self.quadrature_points,
+            rng=rng,
+        )
 
 
 @dataclass(frozen=True)
@@ -495,12 +503,13 @@ class InformationPlanner(Planner):
     (5) run the penalty coordination (:func:`~infoseek.planners.coordination.coordinate`) with the
     subclass's utility; (6) for continuous actions, refine each vehicle's grid choice in
     Gauss-Seidel order against the others' latest plans with the last penalty weight; (7) map the
-    controls to actions. Subclasses provide :meth:`_utility_function` and
-    :meth:`_utility_at`.
+    controls to actions. Subclasses provide :meth:`_utility_function`.
     """
 
     config_class = PlannerConfig
     min_agents: ClassVar[int] = 1
+    #: Joint observations of one utility term (1 single-node, 2 pairwise-node).
+    observations_per_term: ClassVar[int] = 1
 
     def __init__(self, model: EnvModel, config: PlannerConfig) -> None:
         if model.n_agents < self.min_agents:
@@ -512,10 +521,14 @@ class InformationPlanner(Planner):
         self.rng = np.random.default_rng(config.seed)
         self.settings = config.penalty_settings(model.min_separation)
         self.candidates = candidate_grid(model, config.grid_size)
-        self._mi_options = config.mi_options()
+        self.estimator = config.make_estimator(
+            model.sensor, self._observations_needed(model), self.rng
+        )
         self._utility_seconds = 0.0
-        # Pair-MI evaluators of the current step's planning beliefs (keyed by id, belief kept).
-        self._pair_evaluators: dict[int, tuple[PlanningBelief, PairwiseMIEvaluator]] = {}
+
+    def _observations_needed(self, model: EnvModel) -> int:
+        """Largest ``k`` the planner's utility evaluates jointly."""
+        return self.observations_per_term
 
     # -- helpers for subclasses
     def _timed(self, function: Any, *args: Any, **kwargs: Any) -> FloatArray:
@@ -525,22 +538,13 @@ class InformationPlanner(Planner):
         finally:
             self._utility_seconds += time.perf_counter() - start
 
-    def _single(self, belief: PlanningBelief, poses: FloatArray) -> FloatArray:
-        return self._timed(
-            single_node_utilities, belief, self.model.sensor, poses, **self._mi_options
-        )
+    def _single(self, belief: BeliefMI, poses: FloatArray) -> FloatArray:
+        """``(K,)`` single-observation MIs on ``belief`` (eq. 20)."""
+        return self._timed(belief.single, poses)
 
-    def _pairs(self, belief: PlanningBelief, poses: FloatArray, others: FloatArray) -> FloatArray:
-        """``(K, M)`` pair MIs on ``belief``; per-pose predictions are cached for the step."""
-        entry = self._pair_evaluators.get(id(belief))
-        if entry is None or entry[0] is not belief:
-            evaluator = PairwiseMIEvaluator(
-                self.model.sensor, belief.particles, belief.weights, **self._mi_options
-            )
-            self._pair_evaluators[id(belief)] = (belief, evaluator)
-        else:
-            evaluator = entry[1]
-        return self._timed(evaluator, poses, others)
+    def _pairs(self, belief: BeliefMI, poses: FloatArray, others: FloatArray) -> FloatArray:
+        """``(K, M)`` pair MIs on ``belief``; per-pose work is cached in ``belief``."""
+        return self._timed(belief.pairs, poses, others)
 
     def _tracks(self, state: FloatArray, controls: FloatArray) -> FloatArray:
         """``(C, H, 2)`` positions over the safety horizon with each control held."""
@@ -559,33 +563,26 @@ class InformationPlanner(Planner):
         )
         return np.asarray(vehicle.position(nxt), dtype=np.float64)
 
-    def _beliefs(self, agents: list[str], infos: Mapping[str, Any]) -> list[PlanningBelief]:
+    def _beliefs(self, agents: list[str], infos: Mapping[str, Any]) -> list[BeliefMI]:
+        """Each agent's own belief, subsampled to the planning particles and bound to the
+        estimator (a :class:`BeliefMI` that caches per-pose work for this step)."""
         beliefs = []
         for agent in agents:
             info = infos[agent]
             if "belief" not in info:
                 raise ValueError(f"infos[{agent!r}] must contain 'belief'")
-            beliefs.append(subsample_particles(info["belief"], self.config.n_planning, self.rng))
+            planning = subsample_particles(info["belief"], self.config.n_planning, self.rng)
+            beliefs.append(self.estimator.bind(planning.particles, planning.weights))
         return beliefs
 
     # -- subclass hooks
     def _utility_function(
         self,
-        beliefs: list[PlanningBelief],
+        beliefs: list[BeliefMI],
         positions: list[FloatArray],
         singles: list[FloatArray],
     ) -> UtilityFunction:
         """``utility(i, plans) -> (C,)`` for the coordination."""
-        raise NotImplementedError
-
-    def _utility_at(
-        self,
-        i: int,
-        beliefs: list[PlanningBelief],
-        poses: FloatArray,
-        partner_positions: FloatArray,
-    ) -> FloatArray:
-        """Utility of vehicle ``i`` at arbitrary ``(K, 2)`` next poses (refinement)."""
         raise NotImplementedError
 
     def _initial_indices(self, singles: list[FloatArray]) -> NDArray[np.int64]:
@@ -604,7 +601,6 @@ class InformationPlanner(Planner):
             )
         rows = [self.model.agent_index(agent) for agent in agents]
         beliefs = self._beliefs(agents, infos)
-        self._pair_evaluators = {}
         tracks = [self._tracks(states[r], self.candidates) for r in rows]
         positions = [track[:, 0, :] for track in tracks]
         singles = [self._single(b, p) for b, p in zip(beliefs, positions, strict=True)]
@@ -619,7 +615,7 @@ class InformationPlanner(Planner):
         controls = result.controls.copy()
         refined = self.config.refine and self.model.action_type == "continuous"
         if refined:
-            controls = self._refine(rows, states, beliefs, result)
+            controls = self._refine(rows, states, result, utility, tracks)
         diagnostics = PlanDiagnostics(
             agents=tuple(agents),
             controls=controls,
@@ -646,28 +642,32 @@ class InformationPlanner(Planner):
         self,
         rows: list[int],
         states: FloatArray,
-        beliefs: list[PlanningBelief],
         result: CoordinationResult,
+        utility: UtilityFunction,
+        candidate_tracks: list[FloatArray],
     ) -> FloatArray:
         """Polish each vehicle's grid control inside its grid cell (Gauss-Seidel order).
 
-        The utility is sampled on a local tensor grid over the cell (``refine_evaluations + 1``
-        nodes for a one-dimensional control, 5 per axis otherwise; the grid choice is always
-        a node) in **one** batched utility call, and interpolated with a cubic spline
-        (``scipy.interpolate``), and so are the vehicle's predicted tracks over the safety
-        horizon (smooth functions of the control, computed exactly at the same nodes).
-        :func:`~infoseek.planners.coordination.refine_control` then runs its bounded scipy
-        search on ``-spline(u) + penalty(track_spline(u)) / beta``, so no scipy evaluation
-        steps the vehicle model. Both interpolants are exact at the nodes, so the refined control
-        is never worse than the grid choice on the sampled utility; the returned control's
-        track is recomputed exactly.
+        The utility of vehicle ``i`` over its whole candidate grid, against the partners'
+        final grid plans, is already known from the coordination (``utility(i, plans)``, whose
+        terms are cached), so no further MI is evaluated: a cubic spline through the grid
+        values (``scipy.interpolate.CubicSpline`` for one control,
+        ``RectBivariateSpline`` for two) is the utility between grid points, and so are the
+        candidates' predicted tracks over the safety horizon (smooth functions of the control,
+        exact at the nodes). :func:`~infoseek.planners.coordination.refine_control` then runs
+        its bounded scipy search on ``-spline(u) + penalty(track_spline(u)) / beta`` within one
+        grid spacing of the grid choice, against the other vehicles' latest (refined) tracks;
+        no scipy evaluation steps the vehicle model. The splines are exact at the nodes, so the
+        refined control is never worse than the grid choice on the interpolated utility; the
+        returned control's track is recomputed exactly.
         """
         low, high = self.model.control_low, self.model.control_high
-        k = self.candidates.shape[0]
-        per_axis = max(2, round(k ** (1.0 / low.shape[0])))
+        dim = low.shape[0]
+        per_axis = round(self.candidates.shape[0] ** (1.0 / dim))
+        if dim > 2 or per_axis**dim != self.candidates.shape[0]:
+            return result.controls.copy()  # not a tensor grid: keep the grid choice
+        axes = [np.linspace(lo, hi, per_axis) for lo, hi in zip(low, high, strict=True)]
         radius = (high - low) / (per_axis - 1)
-        nodes_per_axis = self.config.refine_evaluations + 1 if low.shape[0] == 1 else 5
-        nodes_per_axis = max(nodes_per_axis, 4)
         controls = result.controls.copy()
         tracks = np.stack(
             [self._tracks(states[row], controls[i][None, :])[0] for i, row in enumerate(rows)]
@@ -675,48 +675,26 @@ class InformationPlanner(Planner):
         settings = self.settings
         weight = 1.0 / result.beta
         for i, row in enumerate(rows):
+            values = np.asarray(utility(i, result.indices.copy()), dtype=np.float64)
+            spline = _grid_spline(axes, values.reshape((per_axis,) * dim))
+            horizon = candidate_tracks[i].shape[1]
+            track_spline = _grid_spline(
+                axes, candidate_tracks[i].reshape((per_axis,) * dim + (horizon * 2,))
+            )
             others = np.delete(tracks, i, axis=0)
-            start = controls[i]
-            box_low = np.maximum(low, start - radius)
-            box_high = np.minimum(high, start + radius)
-            free = box_high > box_low
-            if not np.any(free):
-                continue
-            axes = [
-                np.union1d(np.linspace(lo, hi, nodes_per_axis), [u]) if f else np.array([u])
-                for lo, hi, u, f in zip(box_low, box_high, start, free, strict=True)
-            ]
-            mesh = np.stack([m.ravel() for m in np.meshgrid(*axes, indexing="ij")], axis=-1)
-            mesh_tracks = self._tracks(states[row], mesh)  # (K, H, 2)
-            values = self._utility_at(i, beliefs, mesh_tracks[:, 0, :], others[:, 0, :])
-            free_axes = [a for a, f in zip(axes, free, strict=True) if f]
-            shape = [a.size for a in free_axes]
-            grid_values = values.reshape(shape)
-            grid_tracks = mesh_tracks.reshape(shape + list(mesh_tracks.shape[1:]))
-            if len(free_axes) == 1:
-                spline: Any = interpolate.CubicSpline(free_axes[0], grid_values)
-                track_spline: Any = interpolate.CubicSpline(free_axes[0], grid_tracks)
-            else:
-                spline = interpolate.RegularGridInterpolator(free_axes, grid_values, method="cubic")
-                track_spline = interpolate.RegularGridInterpolator(
-                    free_axes, grid_tracks, method="cubic"
-                )
 
             def cost(
                 u: FloatArray,
                 others: FloatArray = others,
-                free: NDArray[np.bool_] = free,
-                several: bool = len(free_axes) > 1,
                 spline: Any = spline,
                 track_spline: Any = track_spline,
+                horizon: int = horizon,
             ) -> FloatArray:
-                free_u = u[:, free] if several else u[:, free][:, 0]
-                value = np.asarray(spline(free_u), dtype=np.float64).reshape(-1)
-                track = np.asarray(track_spline(free_u), dtype=np.float64)  # (1, H, 2)
+                track = track_spline(u).reshape(-1, horizon, 2)
                 penalty = horizon_separation_penalty(
                     track, others, settings.min_separation, settings.gamma
                 )
-                return -value + weight * penalty
+                return -spline(u) + weight * penalty
 
             u, _ = refine_control(
                 cost, controls[i], low, high, radius, self.config.refine_evaluations
@@ -724,3 +702,31 @@ class InformationPlanner(Planner):
             controls[i] = u
             tracks[i] = self._tracks(states[row], u[None, :])[0]
         return controls
+
+
+def _grid_spline(axes: list[FloatArray], values: FloatArray) -> Any:
+    """Cubic interpolant of values on a tensor grid of controls.
+
+    Args:
+        axes: One (``d = 1``) or two (``d = 2``) increasing node arrays.
+        values: ``(n_1, ..., n_d)`` or ``(n_1, ..., n_d, m)`` values at the nodes.
+
+    Returns:
+        ``f(u (K, d)) -> (K,)`` (or ``(K, m)``).
+    """
+    if len(axes) == 1:
+        spline_1d = interpolate.CubicSpline(axes[0], values, axis=0)
+        return lambda u: np.asarray(spline_1d(u[:, 0]), dtype=np.float64)
+    order = min(3, axes[0].size - 1, axes[1].size - 1)
+    columns = values.reshape(values.shape[0], values.shape[1], -1)
+    splines = [
+        interpolate.RectBivariateSpline(axes[0], axes[1], columns[..., c], kx=order, ky=order)
+        for c in range(columns.shape[-1])
+    ]
+    scalar = values.ndim == 2
+
+    def evaluate(u: FloatArray) -> FloatArray:
+        stacked = np.stack([f(u[:, 0], u[:, 1], grid=False) for f in splines], axis=-1)
+        return stacked[:, 0] if scalar else stacked
+
+    return evaluate

@@ -37,8 +37,7 @@ from infoseek.planners.base import (
     controls_to_actions,
 )
 from infoseek.planners.coordination import max_violation, separation_penalty
-from infoseek.planners.information import MAX_GRID_OBSERVATIONS, mutual_information_batch
-from infoseek.planners.utilities import joint_utilities
+from infoseek.planners.information import MAX_GRID_OBSERVATIONS
 
 __all__ = ["JointPlanner"]
 
@@ -56,6 +55,9 @@ class JointPlanner(InformationPlanner):
                 "PairwiseNodePlanner for larger teams"
             )
         super().__init__(model, config)
+
+    def _observations_needed(self, model: EnvModel) -> int:
+        return model.n_agents
 
     def _plan(
         self, agents: list[str], states: FloatArray, infos: Mapping[str, Any]
@@ -88,14 +90,7 @@ class JointPlanner(InformationPlanner):
             combos = np.array(list(itertools.product(range(c), repeat=n)), dtype=np.int64)
             joint = np.stack([positions[a][combos[:, a]] for a in range(n)], axis=1)  # (K, n, 2)
             penalties = penalty_of(joint)
-            values = self._timed(
-                mutual_information_batch,
-                self.model.sensor,
-                joint,
-                belief.particles,
-                belief.weights,
-                **self._mi_options,
-            )
+            values = self._timed(belief.joint, joint)
             score = np.where(penalties > 0, -np.inf, values)
             best = int(np.argmax(score)) if np.isfinite(score).any() else int(np.argmin(penalties))
             plans = combos[best].copy()
@@ -108,14 +103,14 @@ class JointPlanner(InformationPlanner):
                 changed = False
                 for a in range(n):
                     others = np.array([positions[b][plans[b]] for b in range(n) if b != a])
-                    values = self._timed(
-                        joint_utilities,
-                        belief,
-                        self.model.sensor,
-                        positions[a],
-                        others,
-                        **self._mi_options,
+                    sets = np.concatenate(
+                        [
+                            positions[a][:, None, :],
+                            np.broadcast_to(others, (c,) + others.shape),
+                        ],
+                        axis=1,
                     )
+                    values = self._timed(belief.joint, sets)
                     penalties = separation_penalty(positions[a], others, d_bar, gamma)
                     score = np.where(penalties > 0, -np.inf, values)
                     if np.isfinite(score).any():

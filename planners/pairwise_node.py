@@ -17,9 +17,10 @@ Cost control: the single terms are computed once per step (one batched call per 
 pair terms :math:`I(z^{(i)}_c, z^{(j)}; \theta)` for all of vehicle ``i``'s candidates ``c`` are
 a column per partner plan; columns are cached by ``(i, j, plan of j)`` and only the columns
 of partners whose plan changed are computed, in one batched
-:class:`~infoseek.planners.information.PairwiseMIEvaluator` call per vehicle and iteration
-(one evaluator per vehicle and step: the per-pose predictions and windowed stencils of the
-candidates and partner plans are cached across sweeps and the refinement). The initial
+:meth:`~infoseek.planners.information.BeliefMI.pairs` call per vehicle and iteration (one
+:class:`~infoseek.planners.information.BeliefMI` per vehicle and step: the per-pose work of the
+candidates and partner plans is cached across sweeps and the refinement). The single and pair
+terms come from the same estimator grid, so eq. 22 combines values of one resolution. The initial
 exchange is every vehicle's single-node argmax.
 
 Needs ``n_v >= 2``: building it for a one-vehicle environment raises ``ValueError``.
@@ -31,7 +32,7 @@ import numpy as np
 
 from infoseek.planners.base import FloatArray, InformationPlanner
 from infoseek.planners.coordination import IntArray, UtilityFunction
-from infoseek.planners.utilities import PlanningBelief
+from infoseek.planners.information import BeliefMI
 
 __all__ = ["PairwiseNodePlanner"]
 
@@ -44,10 +45,11 @@ class PairwiseNodePlanner(InformationPlanner):
     """
 
     min_agents = 2
+    observations_per_term = 2
 
     def _utility_function(
         self,
-        beliefs: list[PlanningBelief],
+        beliefs: list[BeliefMI],
         positions: list[FloatArray],
         singles: list[FloatArray],
     ) -> UtilityFunction:
@@ -69,14 +71,3 @@ class PairwiseNodePlanner(InformationPlanner):
             return total
 
         return utility
-
-    def _utility_at(
-        self,
-        i: int,
-        beliefs: list[PlanningBelief],
-        poses: FloatArray,
-        partner_positions: FloatArray,
-    ) -> FloatArray:
-        n_vehicles = partner_positions.shape[0] + 1
-        pairs = self._pairs(beliefs[i], poses, partner_positions)
-        return (2 - n_vehicles) * self._single(beliefs[i], poses) + pairs.sum(axis=1)

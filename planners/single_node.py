@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from infoseek.planners.base import FloatArray, InformationPlanner
 from infoseek.planners.coordination import UtilityFunction
-from infoseek.planners.utilities import PlanningBelief
+from infoseek.planners.information import BeliefMI
 
 __all__ = ["SingleNodePlanner"]
 
@@ -26,7 +26,7 @@ class SingleNodePlanner(InformationPlanner):
 
     def _utility_function(
         self,
-        beliefs: list[PlanningBelief],
+        beliefs: list[BeliefMI],
         positions: list[FloatArray],
         singles: list[FloatArray],
     ) -> UtilityFunction:
@@ -34,12 +34,3 @@ class SingleNodePlanner(InformationPlanner):
             return singles[i]
 
         return utility
-
-    def _utility_at(
-        self,
-        i: int,
-        beliefs: list[PlanningBelief],
-        poses: FloatArray,
-        partner_positions: FloatArray,
-    ) -> FloatArray:
-        return self._single(beliefs[i], poses)

@@ -9,11 +9,13 @@ For vehicle ``i`` with next poses ``x^{(1)}, ..., x^{(n_v)}`` of all vehicles:
   small ``n_v`` (on a grid for ``n_v <= 3``, by Monte Carlo beyond).
 
 Every function takes the belief as any object with ``.particles`` ``(N, d)`` and ``.weights``
-``(N,)`` (e.g. :class:`infoseek.envs.belief.BeliefView`) and forwards keyword options
-(``method``, ``n_points``, ``edges``, ``n_samples``, ``rng``) to
-:mod:`infoseek.planners.information`. The batched forms score ``C`` candidate next poses of
-one vehicle at once, with the other vehicles' next poses held fixed; their per-pose work is
-shared across candidates (:func:`~infoseek.planners.information.pairwise_mutual_information`).
+``(N,)`` (e.g. :class:`infoseek.envs.belief.BeliefView`), or an already bound
+:class:`~infoseek.planners.information.BeliefMI`, and forwards keyword options (``method``,
+``n_points``, ``edges``, ``n_samples``, ``rng``) to
+:func:`~infoseek.planners.information.make_estimator`. Each call binds the belief to one
+estimator once, so all terms of a utility come from one estimator at one resolution and share
+its per-pose work. The batched forms score ``C`` candidate next poses of one vehicle at once,
+with the other vehicles' next poses held fixed.
 
 :func:`subsample_particles` reduces a belief to a smaller, equally weighted planning set by
 systematic (low-variance) resampling.
@@ -27,16 +29,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from infoseek.envs.sensors.base import Sensor
-from infoseek.planners.information import (
-    mutual_information,
-    mutual_information_batch,
-    pairwise_mutual_information,
-)
+from infoseek.planners.information import BeliefMI, make_estimator
 
 FloatArray = NDArray[np.float64]
 
 __all__ = [
     "BeliefLike",
+    "bind_belief",
     "single_node_utility",
     "pairwise_node_utility",
     "joint_utility",
@@ -85,6 +84,25 @@ def _belief_arrays(belief: BeliefLike) -> tuple[FloatArray, FloatArray]:
     return particles, weights
 
 
+def bind_belief(
+    belief: BeliefLike | BeliefMI, sensor: Sensor, n_observations: int, **options: Any
+) -> BeliefMI:
+    """``belief`` bound to the estimator that ``options`` name (``method``, default ``"auto"``).
+
+    A :class:`~infoseek.planners.information.BeliefMI` is returned as it is (then ``options``
+    must be empty).
+    """
+    if isinstance(belief, BeliefMI):
+        if options:
+            raise TypeError(f"options {sorted(options)} cannot be applied to a bound BeliefMI")
+        return belief
+    particles, weights = _belief_arrays(belief)
+    method = options.pop("method", "auto")
+    estimator = make_estimator(method, sensor, n_observations=n_observations, **options)
+    estimator.check_observations(n_observations)
+    return estimator.bind(particles, weights)
+
+
 def _next_poses(sensor: Sensor, next_poses: Any, agent_index: int) -> FloatArray:
     poses = np.asarray(next_poses, dtype=np.float64)
     if poses.ndim != 2 or poses.shape[1] != sensor.pose_dim or poses.shape[0] == 0:
@@ -128,18 +146,14 @@ def single_node_utility(
         sensor: The shared sensor model.
         next_poses: ``(n_v, pose_dim)`` next poses of all vehicles.
         agent_index: ``i``, the vehicle whose utility is evaluated.
-        **options: Forwarded to :func:`~infoseek.planners.information.mutual_information`.
+        **options: Estimator options (:func:`bind_belief`).
 
     Returns:
         The utility in nats.
     """
     poses = _next_poses(sensor, next_poses, agent_index)
-    particles, weights = _belief_arrays(belief)
-    return float(
-        mutual_information(
-            sensor, poses[agent_index : agent_index + 1], particles, weights, **options
-        )
-    )
+    bound = bind_belief(belief, sensor, 1, **options)
+    return float(bound.single(poses[agent_index : agent_index + 1])[0])
 
 
 def pairwise_node_utility(
@@ -152,7 +166,7 @@ def pairwise_node_utility(
         sensor: The shared sensor model.
         next_poses: ``(n_v, pose_dim)`` next poses of all vehicles, ``n_v >= 2``.
         agent_index: ``i``.
-        **options: Forwarded to :mod:`infoseek.planners.information`.
+        **options: Estimator options (:func:`bind_belief`).
 
     Returns:
         The utility in nats (equals the exact joint MI when ``n_v == 2``).
@@ -191,14 +205,14 @@ def joint_utility(
         next_poses: ``(n_v, pose_dim)`` next poses of all vehicles.
         agent_index: Accepted for a uniform signature; the joint utility is the same for every
             vehicle (checked for range if given).
-        **options: Forwarded to :func:`~infoseek.planners.information.mutual_information`.
+        **options: Estimator options (:func:`bind_belief`).
 
     Returns:
         The utility in nats.
     """
     poses = _next_poses(sensor, next_poses, 0 if agent_index is None else agent_index)
-    particles, weights = _belief_arrays(belief)
-    return float(mutual_information(sensor, poses, particles, weights, **options))
+    bound = bind_belief(belief, sensor, poses.shape[0], **options)
+    return float(bound.joint(poses[None])[0])
 
 
 def single_node_utilities(
@@ -210,17 +224,13 @@ def single_node_utilities(
         belief: Object with ``.particles`` and ``.weights``.
         sensor: The shared sensor model.
         candidate_poses: ``(C, pose_dim)`` candidate next poses.
-        **options: Forwarded to
-            :func:`~infoseek.planners.information.mutual_information_batch`.
+        **options: Estimator options (:func:`bind_belief`).
 
     Returns:
         ``(C,)`` utilities ``I(z_c; theta)`` in nats.
     """
     candidates = _candidates(sensor, candidate_poses, "candidate_poses")
-    particles, weights = _belief_arrays(belief)
-    return np.asarray(
-        mutual_information_batch(sensor, candidates[:, None, :], particles, weights, **options)
-    )
+    return bind_belief(belief, sensor, 1, **options).single(candidates)
 
 
 def pairwise_node_utilities(
@@ -241,7 +251,7 @@ def pairwise_node_utilities(
         sensor: The shared sensor model.
         candidate_poses: ``(C, pose_dim)`` candidate next poses of vehicle ``i``.
         other_poses: ``(M, pose_dim)`` next poses of the other ``M = n_v - 1 >= 1`` vehicles.
-        **options: Forwarded to :mod:`infoseek.planners.information`.
+        **options: Estimator options (:func:`bind_belief`).
 
     Returns:
         ``(C,)`` utilities in nats.
@@ -257,14 +267,11 @@ def pairwise_node_utilities(
             "pairwise_node_utilities needs n_v >= 2 (other_poses with at least one row); "
             "use single_node_utilities for a single vehicle"
         )
-    particles, weights = _belief_arrays(belief)
-    pairs = pairwise_mutual_information(sensor, candidates, others, particles, weights, **options)
+    bound = bind_belief(belief, sensor, 2, **options)
+    pairs = bound.pairs(candidates, others)
     if n_vehicles == 2:
         return pairs[:, 0].copy()
-    singles = mutual_information_batch(
-        sensor, candidates[:, None, :], particles, weights, **options
-    )
-    return (2 - n_vehicles) * np.asarray(singles) + pairs.sum(axis=1)
+    return (2 - n_vehicles) * bound.single(candidates) + pairs.sum(axis=1)
 
 
 def joint_utilities(
@@ -281,20 +288,19 @@ def joint_utilities(
         sensor: The shared sensor model.
         candidate_poses: ``(C, pose_dim)`` candidate next poses.
         other_poses: ``(M, pose_dim)`` next poses of the other vehicles (``M`` may be 0).
-        **options: Forwarded to
-            :func:`~infoseek.planners.information.mutual_information_batch`.
+        **options: Estimator options (:func:`bind_belief`).
 
     Returns:
         ``(C,)`` values of ``I(z_c, z_1, ..., z_M; theta)`` in nats.
     """
     candidates = _candidates(sensor, candidate_poses, "candidate_poses")
     others = _others(sensor, other_poses)
-    particles, weights = _belief_arrays(belief)
+    bound = bind_belief(belief, sensor, others.shape[0] + 1, **options)
     sets = np.concatenate(
         [candidates[:, None, :], np.broadcast_to(others, (candidates.shape[0],) + others.shape)],
         axis=1,
     )
-    return np.asarray(mutual_information_batch(sensor, sets, particles, weights, **options))
+    return bound.joint(sets)
 
 
 def subsample_particles(

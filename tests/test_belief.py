@@ -669,7 +669,7 @@ def test_bad_tempering_arguments() -> None:
 
 
 def test_beacon_filter_noise_floor_is_an_inflated_noise_likelihood() -> None:
-    """max_snr = c evaluates the exact density with noise std max(s, |H| / c) per particle."""
+    """with_max_snr(c) evaluates the exact density with noise std max(s, |H| / c) per particle."""
     sensor = BeaconSensor(moment=1000.0, noise_std=1.0)
     rng = np.random.default_rng(3)
     particles = np.column_stack(
@@ -677,10 +677,10 @@ def test_beacon_filter_noise_floor_is_an_inflated_noise_likelihood() -> None:
     )
     pose, z = np.array([[5.0, 5.0]]), np.array([[0.7]])
     np.testing.assert_array_equal(
-        sensor.log_likelihood(z, pose, particles, max_snr=math.inf),
+        sensor.with_max_snr(math.inf).log_likelihood(z, pose, particles),
         sensor.log_likelihood(z, pose, particles),
     )
-    floored = sensor.log_likelihood(z, pose, particles, max_snr=5.0)[0]
+    floored = sensor.with_max_snr(5.0).log_likelihood(z, pose, particles)[0]
     rho = np.linalg.norm(sensor.field(pose, particles), axis=-1)  # (N,) with noise_std 1
     assert np.any(rho > 5.0) and np.any(rho < 5.0)
     for k in range(len(particles)):

@@ -256,7 +256,7 @@ def _step_and_recompute(env, seed: int):
     z = np.array(env.last_measurements)
     poses = infos["vehicle_0"]["vehicle_states"][:, :2]
     # the beliefs' likelihood: the sensor's, with beacon_v0's filter noise floor (max_snr)
-    filter_model = env.filter_likelihood
+    filter_model = env.filter_sensor
     results = {}
     for i, agent in enumerate(env.possible_agents):
         loglik = filter_model.log_likelihood(z, poses, particles[agent])

@@ -183,3 +183,26 @@ BEACON_CLOSED_LOOP = {
 def test_closed_loop_beacon(chunk: int) -> None:
     masses = _closed_loop("beacon_v0", range(3 * chunk, 3 * chunk + 3), BEACON_CLOSED_LOOP)
     assert sum(m >= 0.9 for m in masses) >= 2, masses
+
+
+def test_planners_score_with_the_likelihood_the_beliefs_apply() -> None:
+    """beacon_v0's beliefs apply the receiver with its noise floor; the planners' model is that
+    same likelihood (not the exact sensor that makes the measurements)."""
+    env = E.make("beacon_v0", n_agents=2, n_particles=300, resample_threshold=0.0, roughening=0.0)
+    planner = PairwiseNodePlanner.from_env(env)
+    base = env.unwrapped
+    observations, infos = env.reset(seed=5)
+    prior = {a: np.array(infos[a]["belief"].log_weights) for a in env.agents}
+    particles = {a: np.array(infos[a]["belief"].particles) for a in env.agents}
+    _, _, _, _, infos = env.step(planner.act(observations, infos))
+    z = np.array(base.last_measurements)
+    poses = infos["vehicle_0"]["vehicle_states"][:, :2]
+    for agent in env.possible_agents:
+        model = planner.model.sensor.log_likelihood(z, poses, particles[agent]).sum(axis=0)
+        posterior = prior[agent] + model
+        posterior -= np.logaddexp.reduce(posterior)
+        np.testing.assert_allclose(infos[agent]["belief"].log_weights, posterior, atol=1e-9)
+        exact = prior[agent] + base.sensor.log_likelihood(z, poses, particles[agent]).sum(axis=0)
+        exact -= np.logaddexp.reduce(exact)
+        assert not np.allclose(infos[agent]["belief"].log_weights, exact, atol=1e-3)
+    assert planner.model.sensor.max_snr == 5.0 and base.sensor.max_snr == np.inf

@@ -13,7 +13,12 @@ from __future__ import annotations
 from typing import Any
 
 from infoseek.envs.registries import Registry
-from infoseek.envs.sensors.base import AdditiveNoiseSensor, ObservationDomain, Sensor
+from infoseek.envs.sensors.base import (
+    AdditiveNoiseSensor,
+    ObservationDomain,
+    Sensor,
+    ShiftKernelSensor,
+)
 from infoseek.envs.sensors.beacon import BeaconSensor
 from infoseek.envs.sensors.bearing import BearingSensor
 from infoseek.envs.sensors.range import RangeSensor
@@ -26,6 +31,7 @@ __all__ = [
     "ObservationDomain",
     "RangeSensor",
     "Sensor",
+    "ShiftKernelSensor",
     "make_sensor",
 ]
 

@@ -152,3 +152,30 @@ class AdditiveNoiseSensor(Sensor, Protocol):
             ``(...)`` log densities (for periodic coordinates, of the wrapped noise).
         """
         ...
+
+
+@runtime_checkable
+class ShiftKernelSensor(Sensor, Protocol):
+    """A sensor whose likelihood is a shifted member of a one-parameter kernel family.
+
+    ``p(z | theta) = f_s(wrap(z - c))`` on a periodic one-dimensional observation, with centre
+    ``c`` and shape ``s`` functions of the pose and the target. The beacon receiver is one
+    (``c`` the field-line angle, ``s`` the signal-to-noise ratio); an additive-noise sensor is
+    the special case of a single kernel. The structure lets mutual information be computed
+    from tabulated Fourier coefficients of ``f_s`` (the planners' ``"fourier"`` estimator).
+
+    Attributes:
+        max_kernel_shape: The largest value ``s`` can take (``inf`` if unbounded).
+    """
+
+    max_kernel_shape: float
+
+    def kernel_parameters(
+        self, poses: FloatArray, particles: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """``(centre, shape)``, each ``(..., N)``, for poses ``(..., pose_dim)``."""
+        ...
+
+    def kernel_log_density(self, residual: FloatArray, shape: FloatArray) -> FloatArray:
+        """``log f_shape(residual)`` for broadcasting ``residual`` and ``shape`` arrays."""
+        ...

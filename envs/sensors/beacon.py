@@ -59,6 +59,23 @@ second term is smaller than the first by a factor ``< 1e-300``. ``log erf`` swit
 (``rho -> 0``) the density tends to the uniform ``1/pi``; close to it, a sharp peak of width
 ``~ 1/rho`` around the field direction.
 
+Shift-kernel form and noise floor
+---------------------------------
+The density depends on the particle only through the field-line angle
+:math:`c = \operatorname{angle}(\mu) \bmod \pi` and the signal-to-noise ratio :math:`\rho`:
+:math:`p(z \mid \theta) = f_\rho(z - c)` with the even kernel
+:math:`f_\rho(\delta) = e^{-\rho^2/2}/\pi + |\rho\cos\delta|\operatorname{erf}(|\rho\cos\delta|
+/\sqrt2)\,\varphi(\rho\sin\delta)` (:meth:`BeaconSensor.kernel_parameters`,
+:meth:`BeaconSensor.kernel_log_density`), which the planners' Fourier MI estimator exploits.
+
+``max_snr = c`` (default ``inf``) models a receiver whose noise standard deviation is inflated
+to :math:`\max(s, |H| / c)`: the same field direction, with :math:`\rho` capped at ``c``, so no
+peak is narrower than ``~1/c`` rad. :meth:`sample`, :meth:`log_likelihood`,
+:meth:`bin_probabilities` and the kernel form all describe that receiver, so a capped sensor is
+a consistent measurement model; ``beacon_v0``'s beliefs and planners use
+``sensor.with_max_snr(5)`` while the environment measures with the exact sensor (see
+:mod:`infoseek.envs.search_env`, "Filter noise floor").
+
 Exact bin probabilities (Owen's T)
 ----------------------------------
 The folded bin :math:`[\alpha, \beta) \subset [0, \pi)` (width :math:`w \le \pi`) is the event
@@ -136,6 +153,9 @@ class BeaconSensor:
         domain: ``[0, pi)``, periodic with period ``pi``.
         moment: Dipole moment ``m`` (field strength scale).
         noise_std: Standard deviation of the noise on each horizontal field component.
+        max_snr: Cap on the signal-to-noise ratio ``rho`` (``inf``: the exact receiver; module
+            docstring, "Shift-kernel form and noise floor").
+        max_kernel_shape: ``max_snr`` (the largest kernel shape parameter ``rho``).
     """
 
     name = "beacon"
@@ -143,23 +163,40 @@ class BeaconSensor:
     target_dim = 3
     obs_dim = 1
 
-    def __init__(self, moment: float = 1000.0, noise_std: float = 1.0) -> None:
+    def __init__(
+        self, moment: float = 1000.0, noise_std: float = 1.0, max_snr: float = math.inf
+    ) -> None:
         """Create the sensor.
 
         Args:
             moment: Dipole moment, finite and ``> 0``.
             noise_std: Per-component field noise standard deviation, finite and ``> 0``.
+            max_snr: Signal-to-noise cap ``> 0`` (``inf``, the default: the exact receiver).
 
         Raises:
-            ValueError: If a parameter is not finite or not positive.
+            ValueError: If a parameter is not finite (``max_snr`` may be ``inf``) or not positive.
             TypeError: If a parameter is not a real number.
         """
         self.moment = check_positive(moment, "moment", "BeaconSensor")
         self.noise_std = check_positive(noise_std, "noise_std", "BeaconSensor")
+        if max_snr == math.inf:
+            self.max_snr = math.inf
+        else:
+            self.max_snr = check_positive(max_snr, "max_snr", "BeaconSensor")
         self.domain = ObservationDomain(low=(0.0,), high=(math.pi,), periodic=(True,))
 
+    @property
+    def max_kernel_shape(self) -> float:
+        """Largest value of the kernel shape ``rho`` (``max_snr``)."""
+        return self.max_snr
+
+    def with_max_snr(self, max_snr: float) -> BeaconSensor:
+        """The same receiver with its signal-to-noise ratio capped at ``max_snr``."""
+        return BeaconSensor(self.moment, self.noise_std, max_snr)
+
     def __repr__(self) -> str:
-        return f"BeaconSensor(moment={self.moment!r}, noise_std={self.noise_std!r})"
+        cap = "" if self.max_snr == math.inf else f", max_snr={self.max_snr!r}"
+        return f"BeaconSensor(moment={self.moment!r}, noise_std={self.noise_std!r}{cap})"
 
     # -- field --------------------------------------------------------------------------------
 
@@ -206,14 +243,19 @@ class BeaconSensor:
     def _scaled_field(
         self, poses: FloatArray, particles: FloatArray
     ) -> tuple[FloatArray, FloatArray]:
-        """``mu = H / noise_std`` for every pose and particle: two ``(..., N)`` arrays."""
+        """``mu = H / noise_std`` (capped at ``max_snr`` in norm) for every pose and particle:
+        two ``(..., N)`` arrays."""
         hx, hy = self._field_xy(
             poses[..., 0, None] - particles[:, 0],
             poses[..., 1, None] - particles[:, 1],
             particles[:, 2],
         )
         inv = 1.0 / self.noise_std
-        return hx * inv, hy * inv
+        mu_x, mu_y = hx * inv, hy * inv
+        if self.max_snr != math.inf:
+            shrink = np.minimum(1.0, self.max_snr / np.maximum(np.hypot(mu_x, mu_y), 1e-300))
+            mu_x, mu_y = mu_x * shrink, mu_y * shrink
+        return mu_x, mu_y
 
     # -- Sensor protocol ----------------------------------------------------------------------
 
@@ -231,34 +273,25 @@ class BeaconSensor:
             ``(..., 1)`` directions in ``[0, pi)``.
         """
         rng = check_rng(rng, "BeaconSensor.sample")
-        h = self.field(poses, targets)
-        noisy = h + self.noise_std * rng.standard_normal(h.shape)
+        h = self.field(poses, targets) * (1.0 / self.noise_std)  # mu
+        if self.max_snr != math.inf:
+            norm = np.linalg.norm(h, axis=-1, keepdims=True)
+            h = h * np.minimum(1.0, self.max_snr / np.maximum(norm, 1e-300))
+        noisy = h + rng.standard_normal(h.shape)
         angle = np.arctan2(noisy[..., 1], noisy[..., 0])
         return wrap_into(angle, 0.0, math.pi)[..., None]
 
-    def log_likelihood(
-        self,
-        z: FloatArray,
-        poses: FloatArray,
-        particles: FloatArray,
-        *,
-        max_snr: float = math.inf,
-    ) -> FloatArray:
+    def log_likelihood(self, z: FloatArray, poses: FloatArray, particles: FloatArray) -> FloatArray:
         """Exact folded projected-normal ``log p(z | theta)`` for every particle.
 
         Args:
             z: ``(..., 1)`` observed directions (any real; the density has period ``pi``).
             poses: ``(..., 2)`` receiver positions; batch shape broadcasts against ``z``.
             particles: ``(N, 3)`` beacon hypotheses ``(x_a, y_a, psi_a)``.
-            max_snr: Optional cap ``c > 0`` on ``rho = |H| / noise_std`` (default ``inf``: the
-                exact model). With a cap the density is the folded projected normal of a
-                receiver whose noise std is inflated to ``max(noise_std, |H| / c)``: the same
-                field direction with a peak no narrower than ``~1/c`` rad. A filter-side
-                "noise floor" setting (see ``InformationSeekingEnv(filter_max_snr=...)``);
-                :meth:`sample` is unaffected.
 
         Returns:
-            ``(..., N)`` log densities on ``[0, pi)``.
+            ``(..., N)`` log densities on ``[0, pi)`` (of the capped receiver if ``max_snr`` is
+            finite).
         """
         owner = "BeaconSensor.log_likelihood"
         z = as_points(z, "z", 1, owner)
@@ -266,19 +299,40 @@ class BeaconSensor:
         particles = as_particles(particles, "particles", 3, owner)
         check_broadcast(z, poses, owner)
         mu_x, mu_y = self._scaled_field(poses, particles)
-        if max_snr != math.inf:
-            cap = check_positive(max_snr, "max_snr", owner)
-            shrink = np.minimum(1.0, cap / np.maximum(np.hypot(mu_x, mu_y), 1e-300))
-            mu_x, mu_y = mu_x * shrink, mu_y * shrink
         cos_z, sin_z = np.cos(z), np.sin(z)  # (..., 1) broadcasting against (..., N)
-        along = np.abs(mu_x * cos_z + mu_y * sin_z)
-        across = mu_x * sin_z - mu_y * cos_z
-        uniform_part = -0.5 * (along * along + across * across) - _LOG_PI
-        along = np.maximum(along, _MIN_ALONG)
-        x = along * _SQRT_HALF
-        log_erf = np.where(x < 0.5, np.log(erf(x)), np.log1p(-erfc(x)))
-        peak_part = -0.5 * across * across - LOG_SQRT_2PI + np.log(along) + log_erf
-        return np.logaddexp(uniform_part, peak_part)
+        return _folded_log_density(mu_x * cos_z + mu_y * sin_z, mu_x * sin_z - mu_y * cos_z)
+
+    def kernel_parameters(
+        self, poses: FloatArray, particles: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """Centre and shape of each particle's likelihood kernel (``p = f_rho(z - c)``).
+
+        Args:
+            poses: ``(..., 2)`` receiver positions.
+            particles: ``(N, 3)`` beacon hypotheses.
+
+        Returns:
+            ``(centre, rho)``, each ``(..., N)``: the field-line angle in ``[0, pi)`` and the
+            (capped) signal-to-noise ratio.
+        """
+        owner = "BeaconSensor.kernel_parameters"
+        poses = as_points(poses, "poses", 2, owner)
+        particles = as_particles(particles, "particles", 3, owner)
+        mu_x, mu_y = self._scaled_field(poses, particles)
+        centre = wrap_into(np.arctan2(mu_y, mu_x), 0.0, math.pi)
+        return centre, np.hypot(mu_x, mu_y)
+
+    def kernel_log_density(self, residual: FloatArray, shape: FloatArray) -> FloatArray:
+        """``log f_rho(residual)`` of the folded projected normal (module docstring).
+
+        Args:
+            residual: ``(...)`` angles ``z - centre`` (any real; period ``pi``).
+            shape: ``(...)`` signal-to-noise ratios ``rho >= 0``, broadcasting against
+                ``residual``.
+        """
+        residual = np.asarray(residual, dtype=np.float64)
+        rho = np.asarray(shape, dtype=np.float64)
+        return _folded_log_density(rho * np.cos(residual), rho * np.sin(residual))
 
     def bin_probabilities(
         self, edges: FloatArray, poses: FloatArray, particles: FloatArray
@@ -315,3 +369,16 @@ class BeaconSensor:
         flat = (mu_x == 0.0) & (mu_y == 0.0)
         probs = np.where(flat, np.diff(edges) / math.pi, probs)
         return np.clip(probs, 0.0, 1.0)
+
+
+def _folded_log_density(along: FloatArray, across: FloatArray) -> FloatArray:
+    """``log p`` of the folded projected normal from the components of ``mu`` along and across
+    the direction ``z`` (module docstring, "Exact likelihood")."""
+    along = np.abs(along)
+    uniform_part = -0.5 * (along * along + across * across) - _LOG_PI
+    along = np.maximum(along, _MIN_ALONG)
+    x = along * _SQRT_HALF
+    with np.errstate(divide="ignore"):  # the branch np.where discards may be log(0)
+        log_erf = np.where(x < 0.5, np.log(erf(x)), np.log1p(-erfc(x)))
+    peak_part = -0.5 * across * across - LOG_SQRT_2PI + np.log(along) + log_erf
+    return np.logaddexp(uniform_part, peak_part)

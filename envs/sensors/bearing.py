@@ -105,6 +105,8 @@ class BearingSensor:
     pose_dim = 2
     target_dim = 2
     obs_dim = 1
+    #: The kernel family has a single member (``ShiftKernelSensor``).
+    max_kernel_shape = 0.0
 
     def __init__(self, sigma: float = 0.1) -> None:
         """Create the sensor.
@@ -217,6 +219,27 @@ class BearingSensor:
         result -= r * r * inv_2s2
         result += self._log_norm
         return result
+
+    def kernel_parameters(
+        self, poses: FloatArray, particles: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """Centre (the noise-free bearing) and shape (always 0) of each particle's kernel.
+
+        Args:
+            poses: ``(..., 2)`` vehicle positions.
+            particles: ``(N, >= 2)`` target hypotheses.
+
+        Returns:
+            ``(centre, shape)``, each ``(..., N)``.
+        """
+        centre = self.predict(poses, particles)[..., 0].astype(np.float64)
+        return centre, np.zeros_like(centre)
+
+    def kernel_log_density(self, residual: FloatArray, shape: FloatArray) -> FloatArray:
+        """Wrapped-normal noise log density at ``residual`` (``shape`` only broadcasts)."""
+        residual = np.asarray(residual, dtype=np.float64)
+        shape = np.asarray(shape, dtype=np.float64)
+        return self._wrapped_log_density(residual + np.zeros_like(shape))
 
     # -- Sensor protocol ----------------------------------------------------------------------
 

@@ -1,0 +1,280 @@
+r"""Mutual information between a particle belief and future observations (section III.B).
+
+The planners score candidate sensor poses by the mutual information (eq. 9)
+
+.. math::  I(z; \theta) = H(z) - H(z \mid \theta)
+
+between the target state :math:`\theta` and the observations :math:`z = (z^{(1)}, \dots,
+z^{(k)})` that sensors at the ``k`` given poses would make next. With the particle belief
+:math:`\sum_n w_n \delta(\theta - \theta_n)` (eq. 11) and conditionally independent
+observations, the observation density is the particle mixture (eq. 15)
+
+.. math::  p(z) = \sum_n w_n \prod_j p(z^{(j)} \mid \theta_n),
+
+:math:`H(z) = -\int p \log p` (eq. 16) and :math:`H(z \mid \theta) = \sum_n w_n \sum_j
+H(z^{(j)} \mid \theta_n)` (eq. 19; the double sum follows from conditional independence).
+
+Estimators (one class per module, all behind :class:`~infoseek.planners.information.base.
+MIEstimator`, registered in :data:`ESTIMATORS`):
+
+=================  ===============================================  ============================
+name               serves                                           method
+=================  ===============================================  ============================
+``"fft"``          additive-noise sensors (bearing, range)          histograms + FFT, windows
+``"fourier"``      shift-kernel sensors (beacon, bearing)           Fourier-synthesised channels
+``"quadrature"``   every sensor with a 1-D observation              likelihoods on nodes
+``"quantised"``    sensors with ``bin_probabilities``               exact binned MI (lower bound)
+``"monte_carlo"``  every sensor, any ``k``                          sampling, with stderr
+=================  ===============================================  ============================
+
+``method="auto"`` takes the first of ``fft``, ``fourier``, ``quadrature`` that serves the
+sensor and ``k``, and ``monte_carlo`` beyond ``k = 3`` (which then needs ``rng``). Every grid
+estimator uses one grid for ``k = 1`` and ``k = 2``, so the terms of a utility (eq. 20, 22)
+share one resolution.
+
+Use an estimator directly for repeated evaluations on one belief (a planner does)::
+
+    estimator = make_estimator("auto", sensor)
+    mi = estimator.bind(particles, weights)        # a BeliefMI: validated once, caches per pose
+    singles = mi.single(candidate_poses)            # (C,)
+    pairs = mi.pairs(candidate_poses, other_poses)  # (C, M)
+
+or the functions :func:`mutual_information`, :func:`mutual_information_batch` and
+:func:`pairwise_mutual_information` for one-off calls. A new estimator is one module with one
+:class:`MIEstimator` subclass plus ``ESTIMATORS.register(name, cls)``; the shared test suite
+(``tests/test_estimators.py``) runs every registered estimator against references.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from infoseek.envs.registries import Registry
+from infoseek.envs.sensors.base import Sensor
+from infoseek.planners.information.base import (
+    BeliefMI,
+    FloatArray,
+    JointEntropies,
+    MIEstimate,
+    MIEstimator,
+    check_poses,
+)
+from infoseek.planners.information.fft import AdditiveFFTEstimator
+from infoseek.planners.information.fourier import ShiftKernelEstimator
+from infoseek.planners.information.monte_carlo import MonteCarloEstimator
+from infoseek.planners.information.noise_kernel import noise_std
+from infoseek.planners.information.quadrature import QuadratureEstimator, observation_nodes
+from infoseek.planners.information.quantised import QuantisedEstimator, uniform_bin_edges
+
+__all__ = [
+    "ESTIMATORS",
+    "MAX_GRID_OBSERVATIONS",
+    "METHODS",
+    "BeliefMI",
+    "JointEntropies",
+    "MIEstimate",
+    "MIEstimator",
+    "make_estimator",
+    "mutual_information",
+    "mutual_information_batch",
+    "noise_std",
+    "observation_nodes",
+    "pairwise_mutual_information",
+    "select_method",
+    "uniform_bin_edges",
+]
+
+#: Registry name -> estimator class.
+ESTIMATORS: Registry[MIEstimator] = Registry("MI estimator", MIEstimator)
+for _cls in (
+    AdditiveFFTEstimator,
+    ShiftKernelEstimator,
+    QuadratureEstimator,
+    QuantisedEstimator,
+    MonteCarloEstimator,
+):
+    ESTIMATORS.register(_cls.name, _cls)
+
+#: Estimators ``method="auto"`` tries, in order.
+AUTO_ORDER: tuple[str, ...] = ("fft", "fourier", "quadrature", "monte_carlo")
+
+#: Largest ``k`` handled on a grid; larger ``k`` needs Monte Carlo.
+MAX_GRID_OBSERVATIONS = 3
+
+
+def methods() -> tuple[str, ...]:
+    """Names accepted by ``method=``: ``"auto"`` and every registered estimator."""
+    return ("auto", *ESTIMATORS)
+
+
+#: Names accepted by ``method=`` when this module was imported (see :func:`methods`).
+METHODS: tuple[str, ...] = methods()
+
+
+def select_method(sensor: Sensor, n_observations: int) -> str:
+    """The estimator ``method="auto"`` uses for ``n_observations`` joint observations.
+
+    Returns:
+        The first of :data:`AUTO_ORDER` that serves ``sensor`` and ``n_observations``.
+    """
+    if isinstance(n_observations, bool) or int(n_observations) != n_observations:
+        raise ValueError(f"n_observations must be an integer >= 1, got {n_observations!r}")
+    if n_observations < 1:
+        raise ValueError(f"n_observations must be >= 1, got {n_observations}")
+    for name in AUTO_ORDER:
+        if ESTIMATORS[name].serves(sensor, n_observations):
+            return name
+    raise TypeError(f"no MI estimator serves {type(sensor).__name__} (k={n_observations})")
+
+
+def make_estimator(
+    method: str,
+    sensor: Sensor,
+    *,
+    n_observations: int = 1,
+    **options: Any,
+) -> MIEstimator:
+    """Build an estimator by name for ``sensor``.
+
+    Args:
+        method: ``"auto"`` or a name in :data:`ESTIMATORS`.
+        sensor: The sensor model.
+        n_observations: Largest ``k`` the caller will ask for (used by ``"auto"``).
+        **options: Estimator options (``n_points``, ``edges``, ``max_shape``, ``n_samples``,
+            ``rng``); each estimator takes those in its ``options`` and ignores the rest.
+
+    Raises:
+        ValueError: Unknown ``method`` (the message lists the valid names) or a bad option.
+        TypeError: The estimator needs a sensor method the sensor lacks (the message names it).
+    """
+    if not isinstance(method, str) or (method != "auto" and method not in ESTIMATORS):
+        raise ValueError(f"method must be one of {list(methods())}, got {method!r}")
+    name = select_method(sensor, n_observations) if method == "auto" else method
+    cls = ESTIMATORS[name]
+    accepted = {key: value for key, value in options.items() if key in cls.options}
+    return cls(sensor, **accepted)
+
+
+def _estimate(
+    sensor: Sensor,
+    pose_sets: FloatArray,
+    particles: Any,
+    weights: Any,
+    method: str,
+    options: dict[str, Any],
+) -> tuple[JointEntropies, str]:
+    k = pose_sets.shape[1]
+    estimator = make_estimator(method, sensor, n_observations=k, **options)
+    estimator.check_observations(k)
+    return estimator.bind(particles, weights).joint_entropies(pose_sets), estimator.name
+
+
+def mutual_information(
+    sensor: Sensor,
+    poses: Any,
+    particles: Any,
+    weights: Any,
+    *,
+    method: str = "auto",
+    n_points: int | None = None,
+    edges: Any | None = None,
+    n_samples: int = 4096,
+    rng: np.random.Generator | None = None,
+) -> MIEstimate:
+    """Joint MI (nats) between the target and the observations of sensors at ``poses``.
+
+    Implements eq. 9 with the particle mixture of eq. 15 and the entropies of eq. 16 and 19.
+
+    Args:
+        sensor: The sensor model shared by all vehicles.
+        poses: ``(k, pose_dim)`` poses of the ``k`` sensors observing jointly.
+        particles: ``(N, target_dim)`` belief particles.
+        weights: ``(N,)`` non-negative particle weights (normalised here).
+        method: ``"auto"`` (default) or an estimator name (module docstring).
+        n_points: Grid size per observation of the grid estimators (default: each
+            estimator's own).
+        edges: ``(Q + 1,)`` increasing bin edges for ``"quantised"`` (overrides ``n_points``).
+        n_samples: Monte Carlo sample size (default 4096).
+        rng: Generator for ``"monte_carlo"`` (required there, unused otherwise).
+
+    Returns:
+        An :class:`MIEstimate` (a ``float``) with ``stderr`` and ``method``.
+
+    Raises:
+        ValueError: On malformed inputs, an unknown method, or Monte Carlo without ``rng``.
+        TypeError: If a forced method needs an interface the sensor lacks.
+    """
+    poses = check_poses(sensor, poses, "poses", "(k, pose_dim)")
+    options = {"n_points": n_points, "edges": edges, "n_samples": n_samples, "rng": rng}
+    result, name = _estimate(sensor, poses[None], particles, weights, method, options)
+    return MIEstimate(
+        result.values[0], result.stderrs[0], name, result.entropy[0], result.conditional[0]
+    )
+
+
+def mutual_information_batch(
+    sensor: Sensor,
+    poses: Any,
+    particles: Any,
+    weights: Any,
+    *,
+    method: str = "auto",
+    n_points: int | None = None,
+    edges: Any | None = None,
+    n_samples: int = 4096,
+    rng: np.random.Generator | None = None,
+    return_stderr: bool = False,
+) -> FloatArray | tuple[FloatArray, FloatArray]:
+    """:func:`mutual_information` for ``C`` candidate pose sets at once.
+
+    Args:
+        sensor: The sensor model.
+        poses: ``(C, k, pose_dim)`` candidate pose sets.
+        particles: ``(N, target_dim)`` belief particles.
+        weights: ``(N,)`` particle weights.
+        method, n_points, edges, n_samples, rng: As in :func:`mutual_information`.
+        return_stderr: Also return the ``(C,)`` standard errors.
+
+    Returns:
+        ``(C,)`` MI values in nats, or ``(values, stderrs)`` if ``return_stderr``.
+    """
+    poses = check_poses(sensor, poses, "poses", "(C, k, pose_dim)")
+    options = {"n_points": n_points, "edges": edges, "n_samples": n_samples, "rng": rng}
+    result, _ = _estimate(sensor, poses, particles, weights, method, options)
+    return (result.values, result.stderrs) if return_stderr else result.values
+
+
+def pairwise_mutual_information(
+    sensor: Sensor,
+    poses_a: Any,
+    poses_b: Any,
+    particles: Any,
+    weights: Any,
+    *,
+    method: str = "auto",
+    n_points: int | None = None,
+    edges: Any | None = None,
+    n_samples: int = 4096,
+    rng: np.random.Generator | None = None,
+) -> FloatArray:
+    """Pair MIs ``I(z_a, z_b; theta)`` for every pose in ``poses_a`` with every one in ``poses_b``.
+
+    The per-pose work is done once for each of the ``C + M`` poses and reused across all
+    ``C * M`` pairs.
+
+    Args:
+        sensor: The sensor model.
+        poses_a: ``(C, pose_dim)`` poses (e.g. one agent's candidate next poses).
+        poses_b: ``(M, pose_dim)`` poses (e.g. the other agents' planned next poses).
+        particles: ``(N, target_dim)`` belief particles.
+        weights: ``(N,)`` particle weights.
+        method, n_points, edges, n_samples, rng: As in :func:`mutual_information` (``k = 2``).
+
+    Returns:
+        ``(C, M)`` MI values in nats.
+    """
+    options = {"n_points": n_points, "edges": edges, "n_samples": n_samples, "rng": rng}
+    estimator = make_estimator(method, sensor, n_observations=2, **options)
+    return estimator.bind(particles, weights).pairs(poses_a, poses_b)

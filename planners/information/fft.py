@@ -1,0 +1,157 @@
+r"""The fast estimator for additive-noise sensors: histograms of predictions, FFT convolution.
+
+For an :class:`~infoseek.envs.sensors.base.AdditiveNoiseSensor`, ``z = wrap(predict + eta)``, the
+observation density of the particle belief (eq. 15) is the weighted histogram of the particles'
+noise-free predictions convolved with the noise density, and ``H(z | theta)`` (eq. 19) is ``k``
+times the noise entropy. So no likelihood is evaluated: each pose costs one ``predict`` of the
+``N`` particles, the predictions are spread over the grid with the three-point quadratic
+stencil (:mod:`~infoseek.planners.information.noise_kernel`, no nearest-node rounding), and the
+histogram is convolved by FFT, ``O(N 3^k + Q^k log Q)`` per pose set instead of ``O(N Q^k)``.
+
+* one observation: three moment ``bincount`` s per batch of poses and one batched ``rfft``;
+* pairs: windowed grids around each pose's predictions once the belief has concentrated
+  (:mod:`~infoseek.planners.information.windows`), the full ``Q x Q`` grid otherwise;
+* three observations: the full ``Q^3`` grid.
+
+The same grid serves every ``k`` (bearing sensor, ``sigma = 0.1``: 96 nodes), so single and pair
+terms of a utility share one resolution. Predictions are computed once per pose and belief in
+float32 (about ``1e-7`` of a node) and cached in the :class:`~infoseek.planners.information.
+base.BeliefMI`. Predictions outside a non-periodic domain are clamped to its edge.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import ClassVar
+
+import numpy as np
+
+from infoseek.envs.sensors.base import Sensor
+from infoseek.planners.information.base import BeliefMI, FloatArray, JointEntropies, MIEstimator
+from infoseek.planners.information.channels import BATCH_BUDGET
+from infoseek.planners.information.noise_kernel import NoiseKernel, grid_points
+from infoseek.planners.information.quadrature import check_points
+from infoseek.planners.information.windows import (
+    WindowSide,
+    full_grid_pair_entropies,
+    pose_windows,
+    windowed_pair_entropies,
+)
+
+__all__ = ["AdditiveFFTEstimator"]
+
+_SINGLE_CHUNK_ELEMENTS = 1 << 17  # predictions per chunk of a batch of single MIs
+
+
+class AdditiveFFTEstimator(MIEstimator):
+    """Histogram + FFT estimator for additive-noise sensors (module docstring).
+
+    Args:
+        sensor: A sensor with ``predict`` and ``noise_log_density``.
+        n_points: Grid nodes per observation (``None``: 1.5 per noise standard deviation, at
+            least 32).
+    """
+
+    name: ClassVar[str] = "fft"
+    required_methods: ClassVar[tuple[str, ...]] = ("predict", "noise_log_density")
+    options: ClassVar[tuple[str, ...]] = ("n_points",)
+
+    def __init__(self, sensor: Sensor, n_points: int | None = None) -> None:
+        super().__init__(sensor)
+        self.kernel = NoiseKernel(sensor, grid_points(sensor, check_points(n_points)))
+        self.log_spacing = math.log(self.kernel.spacing)
+
+    @property
+    def n_points(self) -> int:
+        """Grid nodes per observation."""
+        return self.kernel.n_points
+
+    # -- per-pose work
+    def predictions(self, belief: BeliefMI, poses: FloatArray) -> FloatArray:
+        """``(P, N)`` float32 noise-free predictions, cached per pose."""
+
+        def compute(missing: FloatArray) -> FloatArray:
+            particles = belief.derived(
+                "particles32", lambda: np.ascontiguousarray(belief.particles, dtype=np.float32)
+            )
+            predicted = np.asarray(
+                self.sensor.predict(missing.astype(np.float32), particles)  # type: ignore[attr-defined]
+            )
+            expected = (missing.shape[0], particles.shape[0], 1)
+            if predicted.shape != expected:
+                raise ValueError(
+                    f"sensor.predict returned shape {predicted.shape}, expected {expected}"
+                )
+            if np.any(np.isnan(predicted)):
+                raise ValueError("sensor.predict returned NaN")
+            return predicted[..., 0]
+
+        return np.stack(belief.per_pose("predictions", poses, compute))
+
+    def _sides(self, belief: BeliefMI, poses: FloatArray) -> WindowSide:
+        """Windowed stencils of a pose set, the per-pose windows cached."""
+
+        def compute(missing: FloatArray) -> list[tuple[object, ...]]:
+            start, targets, weights, widths = pose_windows(
+                self.kernel, self.predictions(belief, missing).astype(np.float64)
+            )
+            return [(start[p], targets[p], weights[p], widths[p]) for p in range(len(start))]
+
+        entries = belief.per_pose("window", poses, compute)
+        return WindowSide(
+            self.kernel,
+            np.array([e[0] for e in entries], dtype=np.int64),
+            np.stack([e[1] for e in entries]),
+            np.stack([e[2] for e in entries]),
+            np.array([e[3] for e in entries], dtype=np.int64),
+        )
+
+    # -- estimates
+    def singles(self, belief: BeliefMI, poses: FloatArray) -> FloatArray:
+        return self._single_entropies(belief, poses) - self.kernel.entropy
+
+    def _single_entropies(self, belief: BeliefMI, poses: FloatArray) -> FloatArray:
+        """Discrete ``H(z)`` of single observations at ``(C, pose_dim)`` poses."""
+        chunk = max(1, _SINGLE_CHUNK_ELEMENTS // belief.n_particles)
+        result = np.empty(poses.shape[0])
+        for start in range(0, poses.shape[0], chunk):
+            block = poses[start : start + chunk]
+            histograms = self.kernel.single_histograms(
+                self.predictions(belief, block), belief.weights, belief.uniform
+            )
+            result[start : start + block.shape[0]] = self.kernel.smoothed_entropy(histograms)
+        return result
+
+    def pairs(self, belief: BeliefMI, poses_a: FloatArray, poses_b: FloatArray) -> FloatArray:
+        side_a, side_b = self._sides(belief, poses_a), self._sides(belief, poses_b)
+        if side_a.fits and side_b.fits:
+            joint = windowed_pair_entropies(self.kernel, side_a, side_b, belief.weights)
+        else:
+            joint = full_grid_pair_entropies(
+                self.kernel,
+                self.predictions(belief, poses_a).astype(np.float64),
+                self.predictions(belief, poses_b).astype(np.float64),
+                belief.weights,
+            )
+        return joint - 2.0 * self.kernel.entropy
+
+    def joint(self, belief: BeliefMI, pose_sets: FloatArray) -> JointEntropies:
+        n_sets, k = pose_sets.shape[:2]
+        if k == 1:
+            entropy = self._single_entropies(belief, pose_sets[:, 0])
+        else:
+            entropy = np.empty(n_sets)
+            per_set = max(belief.n_particles * 3**k, self.kernel.length**k) * 4
+            chunk = max(1, BATCH_BUDGET // per_set)
+            for start in range(0, n_sets, chunk):
+                block = pose_sets[start : start + chunk]
+                assignments = [
+                    self.kernel.assign(self.predictions(belief, block[:, j]).astype(np.float64))
+                    for j in range(k)
+                ]
+                histograms = self.kernel.joint_histograms(assignments, belief.weights)
+                entropy[start : start + block.shape[0]] = self.kernel.smoothed_entropy(histograms)
+        log_cells = k * self.log_spacing
+        return JointEntropies.from_entropies(
+            entropy + log_cells, np.full(n_sets, k * self.kernel.entropy + log_cells)
+        )

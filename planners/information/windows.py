@@ -1,0 +1,265 @@
+r"""Pair MIs of an additive-noise sensor on windowed grids.
+
+Once the belief has concentrated, each pose's predictions occupy a short interval of the
+``Q``-node grid (:mod:`~infoseek.planners.information.noise_kernel`). Pose ``p`` then gets a
+window of ``W_p`` nodes starting at integer node ``s_p``: periodic domains take the arc measured
+from the first prediction, ``s_p = floor(x_1 + min_n wrap(x_n - x_1)) - 1`` (in node units; the
+shortest arc whenever the predictions span less than half a period), window node ``j`` being
+global node ``(s_p + j) mod Q``; non-periodic domains take ``s_p = max(min_n nearest_n - 1, 0)``
+with the clamped stencil. As ``s_p`` is an integer, each stencil is exactly the full-grid
+stencil relabelled. The pair histogram is ``H_ab = S_a^T diag(w) S_b`` (``S_p`` the ``N x W``
+dense stencil matrix; small matrix products in blocks of 32 particles), and the noise
+convolution is the *linear* one, ``D = K_a H_ab K_b^T`` with ``K`` the ``(W + 2h) x W``
+Toeplitz matrix of the kernel truncated to ``|offset| <= h`` nodes, ``h`` the smallest half
+width whose discarded noise mass is below ``1e-10``. Output node ``x`` of pose ``p`` is global
+node ``s_p - h + x``; as long as ``W + 2h <= Q`` (periodic) these are distinct nodes, so ``D``
+is the full-grid density restricted to them and the rest of the full grid carries only the
+discarded tail. Non-periodic output nodes outside ``[0, Q)`` are zeroed, as the full grid drops
+them. Entropies are invariant to the relabelling, so the windowed ``H(z_a, z_b)`` equals the
+full-grid value up to the tail mass. Pose sets whose window does not fit use the full grid
+(:func:`full_grid_pair_entropies`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from infoseek.planners.information.base import FloatArray
+from infoseek.planners.information.channels import BATCH_BUDGET, entropy
+from infoseek.planners.information.noise_kernel import NoiseKernel, stencil_weights
+
+__all__ = ["WindowSide", "full_grid_pair_entropies", "pose_windows", "windowed_pair_entropies"]
+
+_WINDOW_GEMM_CELLS = 24 * 24  # windowed pair histograms up to this size: matrix products
+# Particles per block of the blocked stencil products: OpenBLAS multithreads a GEMM once
+# m * n * k exceeds 2^18, which on a shared 2-core machine costs far more than it saves; blocks
+# of 32 particles keep a 9-candidate x 9-partner product (90 x 90 x 32) single-threaded.
+_GEMM_BLOCK = 32
+_WINDOW_SCATTER_ELEMENTS = 1 << 20  # stencil entries per chunk of the windowed scatter histogram
+_FFT_CHUNK_ELEMENTS = 1 << 18  # stencil entries (N 9 per pair) handled per full-grid chunk
+
+
+def pose_windows(
+    kernel: NoiseKernel, predictions: NDArray[Any]
+) -> tuple[NDArray[np.int64], NDArray[np.intp], FloatArray, NDArray[np.int64]]:
+    """Windowed three-point stencils of each pose's predictions (see the module docstring).
+
+    Args:
+        kernel: The noise kernel (grid of ``Q`` nodes, spacing ``h``).
+        predictions: ``(P, N)`` noise-free observations of ``P`` poses.
+
+    Returns:
+        ``(start (P,), targets (P, N, 3), weights (P, N, 3), width (P,))``: the global node
+        of each pose's window origin, the window index of each stencil node (``0 <= targets <
+        width``), the stencil weights (identical to :meth:`NoiseKernel.assign`) and the number
+        of window nodes each pose needs.
+    """
+    q = kernel.n_points
+    position = (np.asarray(predictions, dtype=np.float64) - kernel.low) * (1.0 / kernel.spacing)
+    offsets = np.arange(-1, 2)
+    if kernel.periodic:
+        if position.size and (position.min() < 0.0 or position.max() >= q):
+            position %= q
+        # Arc containing every prediction, measured from the first one: exact (the shortest
+        # arc) whenever the predictions span less than half a period.
+        deviation = position - position[:, :1]
+        deviation += 0.5 * q
+        deviation %= q
+        lowest = deviation.min(axis=1) - 0.5 * q + position[:, 0]
+        start = np.floor(lowest).astype(np.int64) - 1
+        relative = position - start[:, None]
+        relative %= q
+        nearest_float = np.floor(relative + 0.5)
+        delta = relative - nearest_float
+        nearest = nearest_float.astype(np.intp)
+        # When the predictions span more than half a period the arc measured from the first
+        # one can miss the lowest few: they wrap to ``relative < 1/2`` and their stencil would
+        # reach node -1. Moving such a pose's window one node down keeps every prediction at
+        # its place on the circle (node ``j`` of the window is global node ``start + j mod Q``).
+        wrapped = nearest.min(axis=1) == 0
+        if wrapped.any():
+            start[wrapped] -= 1
+            nearest[wrapped] += 1
+        targets = nearest[..., None] + offsets
+    else:
+        np.clip(position, 0.0, q - 1.0, out=position)
+        nearest_float = np.floor(position + 0.5)
+        delta = position - nearest_float
+        nearest = nearest_float.astype(np.intp)
+        start = np.maximum(nearest.min(axis=1) - 1, 0).astype(np.int64)
+        targets = np.clip(nearest[..., None] + offsets, 0, q - 1) - start[:, None, None]
+    weights = stencil_weights(delta)
+    width = targets.max(axis=(1, 2)).astype(np.int64) + 1
+    return start, targets, weights, width
+
+
+def _stencil_matrices(targets: NDArray[np.intp], weights: FloatArray, width: int) -> FloatArray:
+    """Dense stencil matrices ``S[p, x, n]`` (weight of particle ``n`` at window node ``x``).
+
+    Stored particle-blocked as ``(B, P * width, _GEMM_BLOCK)`` (``N`` zero-padded to ``B``
+    blocks) so that the pair histograms are a stack of small matrix products (see
+    :data:`_GEMM_BLOCK`).
+    """
+    n_poses, n = targets.shape[:2]
+    blocks = -(-n // _GEMM_BLOCK)
+    particle = np.arange(n)
+    column = (particle // _GEMM_BLOCK) * (n_poses * width * _GEMM_BLOCK) + particle % _GEMM_BLOCK
+    flat = (targets + (np.arange(n_poses) * width)[:, None, None]) * _GEMM_BLOCK
+    flat += column[:, None]
+    size = blocks * n_poses * width * _GEMM_BLOCK
+    return np.bincount(flat.ravel(), weights.ravel(), size).reshape(
+        blocks, n_poses * width, _GEMM_BLOCK
+    )
+
+
+def _convolution_matrix(kernel: NoiseKernel, width: int) -> FloatArray:
+    """``(width + 2 hw, width)`` Toeplitz matrix of the truncated noise kernel (linear conv)."""
+    half = kernel.window_half_width
+    lag = np.arange(width + 2 * half)[:, None] - np.arange(width)[None, :]
+    inside = (lag >= 0) & (lag <= 2 * half)
+    return np.where(inside, kernel.window_taps[np.clip(lag, 0, 2 * half)], 0.0)
+
+
+class WindowSide:
+    """One side of a batch of pairs: windowed stencils of ``P`` poses (see :func:`pose_windows`).
+
+    Args:
+        kernel: The noise kernel.
+        start, targets, weights, widths: Per pose, as returned by :func:`pose_windows` (or
+            stacked from per-pose entries of it).
+
+    Attributes:
+        width: Common window size (the largest of ``widths``).
+        out: Output nodes per axis after the linear convolution (``width + 2h``).
+        fits: Whether the window plus the kernel support fits in one period (always true on a
+            non-periodic domain).
+        mask: Non-periodic domains: ``(P, out)`` 1 where an output node lies in the domain.
+    """
+
+    def __init__(
+        self,
+        kernel: NoiseKernel,
+        start: NDArray[np.int64],
+        targets: NDArray[np.intp],
+        weights: FloatArray,
+        widths: NDArray[np.int64],
+    ) -> None:
+        self.start, self.targets, self.weights, self.widths = start, targets, weights, widths
+        self.width = int(self.widths.max())
+        self.size = int(self.targets.shape[0])
+        self.out = self.width + 2 * kernel.window_half_width
+        self.fits = not kernel.periodic or self.out <= kernel.n_points
+        self._stencils: dict[bool, FloatArray] = {}
+        self.mask: FloatArray | None = None
+        if not kernel.periodic:  # the full grid keeps only the domain's nodes
+            nodes = self.start[:, None] - kernel.window_half_width + np.arange(self.out)
+            self.mask = ((nodes >= 0) & (nodes < kernel.n_points)).astype(np.float64)
+
+    @classmethod
+    def from_predictions(cls, kernel: NoiseKernel, predictions: NDArray[Any]) -> WindowSide:
+        """The side of ``(P, N)`` predictions."""
+        return cls(kernel, *pose_windows(kernel, predictions))
+
+    def stencils(self, particle_weights: FloatArray | None) -> FloatArray:
+        """Blocked stencil matrices (:func:`_stencil_matrices`), scaled by ``particle_weights``."""
+        key = particle_weights is not None
+        if key not in self._stencils:
+            weights = (
+                self.weights
+                if particle_weights is None
+                else (self.weights * particle_weights[:, None])
+            )
+            self._stencils[key] = _stencil_matrices(self.targets, weights, self.width)
+        return self._stencils[key]
+
+
+def windowed_pair_entropies(
+    kernel: NoiseKernel,
+    side_a: WindowSide,
+    side_b: WindowSide,
+    particle_weights: FloatArray,
+) -> FloatArray:
+    """Discrete joint entropies ``H(z_a, z_b)`` ``(C, M)`` on windowed grids.
+
+    Both sides must fit (:attr:`WindowSide.fits`); the result equals the full-grid entropy up
+    to the discarded kernel tail (module docstring).
+    """
+    width_a, width_b = side_a.width, side_b.width
+    n_a, n_b = side_a.size, side_b.size
+    n = particle_weights.shape[0]
+    out_a, out_b = side_a.out, side_b.out
+    conv_a = _convolution_matrix(kernel, width_a)  # (out_a, width_a)
+    conv_b = conv_a if width_b == width_a else _convolution_matrix(kernel, width_b)
+    gemm = width_a * width_b <= _WINDOW_GEMM_CELLS
+    if gemm:
+        stencil_a = side_a.stencils(particle_weights)
+        stencil_b = side_b.stencils(None)
+    cells = max(width_a * width_b, out_a * out_b)
+    chunk = max(1, BATCH_BUDGET // (4 * n_b * cells))
+    if not gemm:
+        chunk = min(chunk, max(1, _WINDOW_SCATTER_ELEMENTS // (9 * n_b * n)))
+        weighted_a = side_a.weights * particle_weights[:, None]
+    joint = np.empty((n_a, n_b))
+    for begin in range(0, n_a, chunk):
+        end = min(begin + chunk, n_a)
+        size = end - begin
+        if gemm:
+            left = stencil_a[:, begin * width_a : end * width_a]
+            histogram = np.matmul(left, stencil_b.transpose(0, 2, 1)).sum(axis=0)
+            histogram = histogram.reshape(size, width_a, n_b, width_b).transpose(0, 2, 1, 3)
+        else:
+            flat = (
+                (np.arange(size * n_b).reshape(size, n_b, 1, 1, 1) * width_a)
+                + side_a.targets[begin:end, None, :, :, None]
+            ) * width_b + side_b.targets[None, :, :, None, :]
+            weight = weighted_a[begin:end, None, :, :, None] * side_b.weights[None, :, :, None, :]
+            histogram = np.bincount(
+                flat.ravel(), weight.ravel(), size * n_b * width_a * width_b
+            ).reshape(size, n_b, width_a, width_b)
+        # Linear convolution along both axes: (conv_a H conv_b^T), axes (c, m, out_b, out_a).
+        # Stacked small products (each below OpenBLAS's threading threshold).
+        smoothed = np.matmul(histogram, conv_b.T)  # (size, n_b, width_a, out_b)
+        density = np.matmul(smoothed.transpose(0, 1, 3, 2), conv_a.T)  # (.., out_b, out_a)
+        if side_a.mask is not None and side_b.mask is not None:
+            density *= side_a.mask[begin:end, None, None, :]
+            density *= side_b.mask[None, :, :, None]
+        density = np.maximum(density.reshape(size, n_b, -1), 0.0)
+        density /= np.maximum(density.sum(axis=2, keepdims=True), 1e-30)
+        joint[begin:end] = entropy(density, (2,))
+    return joint
+
+
+def full_grid_pair_entropies(
+    kernel: NoiseKernel,
+    predictions_a: FloatArray,
+    predictions_b: FloatArray,
+    weights: FloatArray,
+) -> FloatArray:
+    """``(C, M)`` discrete joint entropies ``H(z_a, z_b)`` on the full ``Q x Q`` grid.
+
+    Args:
+        kernel: The noise kernel.
+        predictions_a: ``(C, N)`` predictions of one side.
+        predictions_b: ``(M, N)`` predictions of the other side.
+        weights: ``(N,)`` normalised particle weights.
+    """
+    n_a, n_b = predictions_a.shape[0], predictions_b.shape[0]
+    n = weights.shape[0]
+    result = np.empty((n_a, n_b))
+    index_a, weight_a = kernel.assign(predictions_a)
+    index_b, weight_b = kernel.assign(predictions_b)
+    chunk = max(1, _FFT_CHUNK_ELEMENTS // (n_b * max(n * 9, kernel.length**2)))
+    for start in range(0, n_a, chunk):
+        stop = min(start + chunk, n_a)
+        histograms = kernel.joint_histograms(
+            [
+                (index_a[start:stop, None], weight_a[start:stop, None]),
+                (index_b[None], weight_b[None]),
+            ],
+            weights,
+        )
+        result[start:stop] = kernel.smoothed_entropy(histograms).reshape(stop - start, n_b)
+    return result
