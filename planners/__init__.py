@@ -22,7 +22,6 @@ from infoseek.planners.coordination import (
     CoordinationResult,
     PenaltySettings,
     coordinate,
-    refine_control,
     separation_penalty,
 )
 from infoseek.planners.joint import JointPlanner
@@ -48,6 +47,5 @@ __all__ = [
     "RandomPolicyConfig",
     "SingleNodePlanner",
     "coordinate",
-    "refine_control",
     "separation_penalty",
 ]

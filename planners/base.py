@@ -34,7 +34,6 @@ from typing import Any, ClassVar, Protocol, Self, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import interpolate
 
 from infoseek.envs.sensors.base import Sensor
 from infoseek.envs.targets import TargetSpace
@@ -44,10 +43,9 @@ from infoseek.planners.coordination import (
     PenaltySettings,
     UtilityFunction,
     coordinate,
-    horizon_separation_penalty,
-    refine_control,
 )
 from infoseek.planners.information import METHODS, BeliefMI, MIEstimator, make_estimator
+from infoseek.planners.refinement import GridRefiner
 from infoseek.planners.utilities import subsample_particles
 
 FloatArray = NDArray[np.float64]
@@ -364,10 +362,12 @@ class PlannerConfig:
         separation_margin: Planning separation is ``min_separation + separation_margin``
             (0.25 units), so that the inexact penalty's residual shortfall stays clear of the
             environment's constraint.
-        refine: Continuous actions only: polish each vehicle's grid choice inside one grid
-            cell with a bounded scipy search on a cubic spline of the utility through the
-            candidate grid (values the coordination already computed; no further MI) (True).
-        refine_evaluations: Budget of the scipy search per vehicle (8).
+        refine: Continuous actions only: polish each vehicle's grid choice inside its grid cell
+            on a cubic spline of the utility through the candidate grid (values the
+            coordination already computed; no further MI), see
+            :mod:`infoseek.planners.refinement` (True).
+        refine_points: Search points per control axis in the cell (odd, >= 3; None: 33 for a
+            one-dimensional control, 17 per axis for two).
         safety_horizon: Steps ``H`` over which the separation constraints (eq. 28) are imposed,
             each candidate's track predicted with its control held (3). ``H = 1`` is the
             paper's one-step constraint; fixed-speed airplanes closing at up to twice their
@@ -397,7 +397,7 @@ class PlannerConfig:
     reciprocal: bool = True
     separation_margin: float = 0.25
     refine: bool = True
-    refine_evaluations: int = 8
+    refine_points: int | None = None
     safety_horizon: int = 3
     max_joint_agents: int = 3
     max_exhaustive: int = 81
@@ -405,7 +405,6 @@ class PlannerConfig:
     def __post_init__(self) -> None:
         for name in (
             "n_planning",
-            "refine_evaluations",
             "safety_horizon",
             "max_joint_agents",
             "max_exhaustive",
@@ -419,6 +418,14 @@ class PlannerConfig:
             )
         if not isinstance(self.mi_method, str) or self.mi_method not in METHODS:
             raise ValueError(f"mi_method must be one of {list(METHODS)}, got {self.mi_method!r}")
+        if self.refine_points is not None and (
+            isinstance(self.refine_points, bool)
+            or not isinstance(self.refine_points, int | np.integer)
+            or self.refine_points < 3
+        ):
+            raise ValueError(
+                f"refine_points must be None or an integer >= 3, got {self.refine_points!r}"
+            )
         if self.grid_size is not None and self.grid_size < 2:
             raise ValueError(f"grid_size must be None or >= 2, got {self.grid_size}")
         if not (np.isfinite(self.separation_margin) and self.separation_margin >= 0):
@@ -524,7 +531,23 @@ class InformationPlanner(Planner):
         self.estimator = config.make_estimator(
             model.sensor, self._observations_needed(model), self.rng
         )
+        self._refiner = self._build_refiner() if config.refine else None
         self._utility_seconds = 0.0
+
+    def _build_refiner(self) -> GridRefiner | None:
+        """The refiner of continuous actions on a tensor candidate grid (else ``None``)."""
+        if self.model.action_type != "continuous":
+            return None
+        low, high = self.model.control_low, self.model.control_high
+        dim = low.shape[0]
+        per_axis = round(self.candidates.shape[0] ** (1.0 / dim))
+        if dim > 2 or per_axis**dim != self.candidates.shape[0] or per_axis < 2:
+            return None
+        axes = [np.linspace(lo, hi, per_axis) for lo, hi in zip(low, high, strict=True)]
+        points = self.config.refine_points
+        if points is None:
+            points = 33 if dim == 1 else 17
+        return GridRefiner(axes, points)
 
     def _observations_needed(self, model: EnvModel) -> int:
         """Largest ``k`` the planner's utility evaluates jointly."""
@@ -546,15 +569,18 @@ class InformationPlanner(Planner):
         """``(K, M)`` pair MIs on ``belief``; per-pose work is cached in ``belief``."""
         return self._timed(belief.pairs, poses, others)
 
-    def _tracks(self, state: FloatArray, controls: FloatArray) -> FloatArray:
-        """``(C, H, 2)`` positions over the safety horizon with each control held."""
+    def _tracks(self, states: FloatArray, controls: FloatArray) -> FloatArray:
+        """``(A, C, H, 2)`` positions over the safety horizon of ``(A, state_dim)`` vehicles,
+        each of the ``(C, control_dim)`` controls held (one vehicle-model call per step)."""
         vehicle = self.model.vehicle
-        current = np.broadcast_to(state, (controls.shape[0], state.shape[0]))
+        n_vehicles, n_controls = states.shape[0], controls.shape[0]
+        current = np.repeat(states, n_controls, axis=0)
+        held = np.tile(controls, (n_vehicles, 1))
         steps = []
         for _ in range(self.config.safety_horizon):
-            current = vehicle.step(current, controls, self.model.dt)
+            current = vehicle.step(current, held, self.model.dt)
             steps.append(np.asarray(vehicle.position(current), dtype=np.float64))
-        return np.stack(steps, axis=1)
+        return np.stack(steps, axis=1).reshape(n_vehicles, n_controls, -1, 2)
 
     def _next_positions(self, state: FloatArray, controls: FloatArray) -> FloatArray:
         vehicle = self.model.vehicle
@@ -601,7 +627,7 @@ class InformationPlanner(Planner):
             )
         rows = [self.model.agent_index(agent) for agent in agents]
         beliefs = self._beliefs(agents, infos)
-        tracks = [self._tracks(states[r], self.candidates) for r in rows]
+        tracks = list(self._tracks(states[rows], self.candidates))
         positions = [track[:, 0, :] for track in tracks]
         singles = [self._single(b, p) for b, p in zip(beliefs, positions, strict=True)]
         utility = self._utility_function(beliefs, positions, singles)
@@ -613,9 +639,9 @@ class InformationPlanner(Planner):
             initial_indices=self._initial_indices(singles),
         )
         controls = result.controls.copy()
-        refined = self.config.refine and self.model.action_type == "continuous"
+        refined = self._refiner is not None
         if refined:
-            controls = self._refine(rows, states, result, utility, tracks)
+            controls = self._refine(rows, result, utility, tracks)
         diagnostics = PlanDiagnostics(
             agents=tuple(agents),
             controls=controls,
@@ -641,92 +667,28 @@ class InformationPlanner(Planner):
     def _refine(
         self,
         rows: list[int],
-        states: FloatArray,
         result: CoordinationResult,
         utility: UtilityFunction,
         candidate_tracks: list[FloatArray],
     ) -> FloatArray:
-        """Polish each vehicle's grid control inside its grid cell (Gauss-Seidel order).
-
-        The utility of vehicle ``i`` over its whole candidate grid, against the partners'
-        final grid plans, is already known from the coordination (``utility(i, plans)``, whose
-        terms are cached), so no further MI is evaluated: a cubic spline through the grid
-        values (``scipy.interpolate.CubicSpline`` for one control,
-        ``RectBivariateSpline`` for two) is the utility between grid points, and so are the
-        candidates' predicted tracks over the safety horizon (smooth functions of the control,
-        exact at the nodes). :func:`~infoseek.planners.coordination.refine_control` then runs
-        its bounded scipy search on ``-spline(u) + penalty(track_spline(u)) / beta`` within one
-        grid spacing of the grid choice, against the other vehicles' latest (refined) tracks;
-        no scipy evaluation steps the vehicle model. The splines are exact at the nodes, so the
-        refined control is never worse than the grid choice on the interpolated utility; the
-        returned control's track is recomputed exactly.
-        """
-        low, high = self.model.control_low, self.model.control_high
-        dim = low.shape[0]
-        per_axis = round(self.candidates.shape[0] ** (1.0 / dim))
-        if dim > 2 or per_axis**dim != self.candidates.shape[0]:
-            return result.controls.copy()  # not a tensor grid: keep the grid choice
-        axes = [np.linspace(lo, hi, per_axis) for lo, hi in zip(low, high, strict=True)]
-        radius = (high - low) / (per_axis - 1)
+        """Polish each vehicle's grid control inside its grid cell, in Gauss-Seidel order
+        (:class:`~infoseek.planners.refinement.GridRefiner`): the utility over the whole grid
+        against the partners' final plans is ``utility(i, plans)`` (already computed by the
+        coordination, so no further MI), penalised against the other vehicles' latest tracks
+        with the coordination's last penalty weight."""
+        assert self._refiner is not None
         controls = result.controls.copy()
-        tracks = np.stack(
-            [self._tracks(states[row], controls[i][None, :])[0] for i, row in enumerate(rows)]
-        )  # (A, H, 2)
+        tracks = np.stack([candidate_tracks[i][result.indices[i]] for i in range(len(rows))])
         settings = self.settings
-        weight = 1.0 / result.beta
-        for i, row in enumerate(rows):
+        for i in range(len(rows)):
             values = np.asarray(utility(i, result.indices.copy()), dtype=np.float64)
-            spline = _grid_spline(axes, values.reshape((per_axis,) * dim))
-            horizon = candidate_tracks[i].shape[1]
-            track_spline = _grid_spline(
-                axes, candidate_tracks[i].reshape((per_axis,) * dim + (horizon * 2,))
+            controls[i], tracks[i] = self._refiner.refine(
+                int(result.indices[i]),
+                values,
+                candidate_tracks[i],
+                np.delete(tracks, i, axis=0),
+                settings.min_separation,
+                settings.gamma,
+                1.0 / result.beta,
             )
-            others = np.delete(tracks, i, axis=0)
-
-            def cost(
-                u: FloatArray,
-                others: FloatArray = others,
-                spline: Any = spline,
-                track_spline: Any = track_spline,
-                horizon: int = horizon,
-            ) -> FloatArray:
-                track = track_spline(u).reshape(-1, horizon, 2)
-                penalty = horizon_separation_penalty(
-                    track, others, settings.min_separation, settings.gamma
-                )
-                return -spline(u) + weight * penalty
-
-            u, _ = refine_control(
-                cost, controls[i], low, high, radius, self.config.refine_evaluations
-            )
-            controls[i] = u
-            tracks[i] = self._tracks(states[row], u[None, :])[0]
         return controls
-
-
-def _grid_spline(axes: list[FloatArray], values: FloatArray) -> Any:
-    """Cubic interpolant of values on a tensor grid of controls.
-
-    Args:
-        axes: One (``d = 1``) or two (``d = 2``) increasing node arrays.
-        values: ``(n_1, ..., n_d)`` or ``(n_1, ..., n_d, m)`` values at the nodes.
-
-    Returns:
-        ``f(u (K, d)) -> (K,)`` (or ``(K, m)``).
-    """
-    if len(axes) == 1:
-        spline_1d = interpolate.CubicSpline(axes[0], values, axis=0)
-        return lambda u: np.asarray(spline_1d(u[:, 0]), dtype=np.float64)
-    order = min(3, axes[0].size - 1, axes[1].size - 1)
-    columns = values.reshape(values.shape[0], values.shape[1], -1)
-    splines = [
-        interpolate.RectBivariateSpline(axes[0], axes[1], columns[..., c], kx=order, ky=order)
-        for c in range(columns.shape[-1])
-    ]
-    scalar = values.ndim == 2
-
-    def evaluate(u: FloatArray) -> FloatArray:
-        stacked = np.stack([f(u[:, 0], u[:, 1], grid=False) for f in splines], axis=-1)
-        return stacked[:, 0] if scalar else stacked
-
-    return evaluate

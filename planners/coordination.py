@@ -66,11 +66,6 @@ in the current sweep. One iteration is one sweep over all vehicles in both sched
 ``H`` steps); the constraints of eq. 28 are then imposed at every step of the horizon
 (:func:`horizon_separation_penalty`). ``H = 1`` is the paper's program.
 
-**Continuous refinement.** :func:`refine_control` polishes one vehicle's grid choice with a
-bounded local scipy search (``minimize_scalar`` for one control, bounded ``Powell`` for
-several) inside the grid cell around the best grid point; it never leaves the control bounds
-and never returns a control worse than its starting point.
-
 Everything here is a pure function of arrays and callables: the planners supply the utilities.
 """
 
@@ -82,7 +77,6 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import optimize
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -489,80 +483,3 @@ def _checked_utility(
     if not np.all(np.isfinite(values)):
         raise ValueError(f"utility for vehicle {i} returned non-finite values")
     return values
-
-
-def refine_control(
-    cost: Callable[[FloatArray], FloatArray],
-    start: FloatArray,
-    low: FloatArray,
-    high: FloatArray,
-    radius: FloatArray,
-    max_evaluations: int = 12,
-) -> tuple[FloatArray, float]:
-    """Bounded local refinement of a grid choice (minimisation).
-
-    Searches the box ``[start - radius, start + radius]`` intersected with ``[low, high]``:
-    ``scipy.optimize.minimize_scalar(method="bounded")`` for one control coordinate, bounded
-    ``scipy.optimize.minimize(method="Powell")`` for several. Every trial point is clipped into
-    the box before evaluation, and the starting point is returned unless a strictly better
-    point was found.
-
-    Args:
-        cost: ``cost(controls (K, control_dim)) -> (K,)``; the refinement calls it with ``K = 1``.
-        start: ``(control_dim,)`` best grid point (inside the bounds).
-        low: ``(control_dim,)`` lower control bounds.
-        high: ``(control_dim,)`` upper control bounds.
-        radius: ``(control_dim,)`` half-width of the search box (typically one grid spacing).
-        max_evaluations: Budget of cost evaluations of the scipy search (>= 1).
-
-    Returns:
-        ``(control (control_dim,), cost)`` with ``low <= control <= high`` and
-        ``cost <= cost(start)``.
-    """
-    start = np.asarray(start, dtype=np.float64).reshape(-1)
-    low = np.asarray(low, dtype=np.float64).reshape(-1)
-    high = np.asarray(high, dtype=np.float64).reshape(-1)
-    radius = np.broadcast_to(np.asarray(radius, dtype=np.float64), start.shape)
-    if not (start.shape == low.shape == high.shape):
-        raise ValueError(
-            f"start, low and high must have the same shape, got {start.shape}, {low.shape}, "
-            f"{high.shape}"
-        )
-    if np.any(start < low) or np.any(start > high):
-        raise ValueError(f"start {start} lies outside the bounds [{low}, {high}]")
-    if max_evaluations < 1:
-        raise ValueError(f"max_evaluations must be >= 1, got {max_evaluations}")
-    box_low = np.maximum(low, start - radius)
-    box_high = np.minimum(high, start + radius)
-
-    def scalar_cost(u: FloatArray) -> float:
-        u = np.clip(np.asarray(u, dtype=np.float64).reshape(-1), box_low, box_high)
-        value = float(np.asarray(cost(u[None, :])).reshape(-1)[0])
-        return value if np.isfinite(value) else np.inf
-
-    best_u, best_cost = start.copy(), scalar_cost(start)
-    free = box_high > box_low
-    if not np.any(free):
-        return best_u, best_cost
-    if start.size == 1:
-        result = optimize.minimize_scalar(
-            lambda s: scalar_cost(np.array([s])),
-            bounds=(float(box_low[0]), float(box_high[0])),
-            method="bounded",
-            options={"maxiter": max_evaluations, "xatol": 1e-4 * float(radius[0] + 1e-12)},
-        )
-        candidate = np.array([float(result.x)])
-    else:
-        result = optimize.minimize(
-            scalar_cost,
-            start,
-            method="Powell",
-            bounds=list(zip(box_low, box_high, strict=True)),
-            options={"maxfev": max_evaluations, "xtol": 1e-4, "ftol": 1e-6},
-        )
-        candidate = np.asarray(result.x, dtype=np.float64)
-    candidate = np.clip(candidate, box_low, box_high)
-    candidate_cost = scalar_cost(candidate)
-    if candidate_cost < best_cost:
-        return candidate, candidate_cost
-    return best_u, best_cost

@@ -10,9 +10,9 @@ from infoseek.planners.coordination import (
     coordinate,
     horizon_separation_penalty,
     max_violation,
-    refine_control,
     separation_penalty,
 )
+from infoseek.planners.refinement import GridRefiner
 
 GRID = np.linspace(-1.0, 1.0, 41)
 OFFSETS = np.stack(np.meshgrid(GRID, GRID, indexing="ij"), axis=-1).reshape(-1, 2)
@@ -128,22 +128,43 @@ def test_max_violation() -> None:
 
 
 @pytest.mark.parametrize("dim", [1, 2])
-def test_refinement_within_bounds_and_never_worse(dim: int) -> None:
+def test_grid_refiner_finds_the_interpolant_optimum_and_is_never_worse(dim: int) -> None:
+    """On a smooth utility sampled on the grid, the refined control is within the cell, never
+    worse than the grid choice on the true utility by more than the interpolation error, and
+    close to the true optimum inside the cell (a cubic spline of a quadratic is exact)."""
     rng = np.random.default_rng(3)
-    low, high = -np.ones(dim), np.ones(dim)
+    axes = [np.linspace(-1.0, 1.0, 9)] * dim
+    refiner = GridRefiner(axes, 33 if dim == 1 else 17)
+    mesh = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, dim)
+    tracks = np.repeat(mesh[:, None, :2] if dim == 2 else np.c_[mesh, mesh][:, None], 3, axis=1)
+    far = np.full((1, 3, 2), 100.0)  # no separation penalty
     for _ in range(20):
         optimum = rng.uniform(-1.5, 1.5, dim)  # sometimes outside the bounds
+        values = -np.sum((mesh - optimum) ** 2, axis=-1)  # quadratic: interpolated exactly
+        index = int(np.argmax(values))
+        u, track = refiner.refine(index, values, tracks, far, 1.0, 2.0, 1.0)
+        assert np.all(np.abs(u - mesh[index]) <= 0.25 + 1e-12)
+        assert np.all(u >= -1.0) and np.all(u <= 1.0)
+        expected = np.clip(optimum, mesh[index] - 0.25, mesh[index] + 0.25)
+        expected = np.clip(expected, -1.0, 1.0)
+        step = 0.25 / (16 if dim == 1 else 8)
+        np.testing.assert_allclose(u, expected, atol=step / 2 + 1e-12)
+        assert -np.sum((u - optimum) ** 2) >= values[index] - 1e-12
+        # interpolated tracks are exact for tracks linear in the control
+        np.testing.assert_allclose(track[0], np.r_[u, u][:2] if dim == 1 else u, atol=1e-12)
 
-        def cost(u: np.ndarray, optimum: np.ndarray = optimum) -> np.ndarray:
-            return np.sum((u - optimum) ** 2, axis=-1) + 0.1 * np.sin(5 * u).sum(axis=-1)
 
-        grid = np.linspace(-1, 1, 9)
-        mesh = np.stack(np.meshgrid(*[grid] * dim, indexing="ij"), -1).reshape(-1, dim)
-        start = mesh[np.argmin(cost(mesh))]
-        u, value = refine_control(cost, start, low, high, radius=np.full(dim, 0.25))
-        assert np.all(u >= low) and np.all(u <= high)
-        assert value <= float(cost(start[None])[0]) + 1e-15
-        assert value == pytest.approx(float(cost(u[None])[0]))
-    # A cost that is better outside the bounds: the result stays on the boundary.
-    u, _ = refine_control(lambda u: -u.sum(axis=-1), np.ones(dim), low, high, np.ones(dim))
-    np.testing.assert_allclose(u, np.ones(dim))
+def test_grid_refiner_avoids_a_partner_and_keeps_the_grid_choice_on_ties() -> None:
+    axes = [np.linspace(-1.0, 1.0, 5)]
+    refiner = GridRefiner(axes, 9)
+    nodes = axes[0]
+    tracks = np.stack([np.c_[nodes, np.zeros(5)]] * 2, axis=1)  # (5, 2, 2): position = (u, 0)
+    flat = np.zeros(5)
+    u, _ = refiner.refine(2, flat, tracks, np.full((1, 2, 2), 50.0), 1.0, 2.0, 1.0)
+    assert u[0] == 0.0  # a flat utility and no partner nearby: the grid choice is kept
+    partner = np.array([[[0.3, 0.0], [0.3, 0.0]]])  # a partner just right of the choice
+    u, track = refiner.refine(2, flat, tracks, partner, 1.0, 2.0, 10.0)
+    assert u[0] == pytest.approx(-0.5)  # pushed to the far edge of the cell
+    np.testing.assert_allclose(track[:, 0], -0.5, atol=1e-12)
+    with pytest.raises(ValueError, match="points_per_axis"):
+        GridRefiner(axes, 1)

@@ -18,7 +18,7 @@ from infoseek.planners.lawnmower import lawnmower_waypoints
 ENVS = ["bearings_v0", "beacon_v0"]
 ACTIONS = ["continuous", "discrete"]
 # Cheap planning options for the API tests (fewer particles, coarse grids).
-FAST = {"n_planning": 100, "quadrature_points": 32, "grid_size": 3, "refine_evaluations": 3}
+FAST = {"n_planning": 100, "quadrature_points": 32, "grid_size": 3, "refine_points": 5}
 BEACON_FAST = {**FAST, "mi_method": "quadrature"}
 
 

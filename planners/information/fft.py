@@ -40,7 +40,7 @@ from infoseek.planners.information.windows import (
 
 __all__ = ["AdditiveFFTEstimator"]
 
-_SINGLE_CHUNK_ELEMENTS = 1 << 17  # predictions per chunk of a batch of single MIs
+_SINGLE_CHUNK_ELEMENTS = 1 << 17  # predictions per chunk of single MIs (cache-sized arrays)
 
 
 class AdditiveFFTEstimator(MIEstimator):

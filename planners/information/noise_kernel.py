@@ -203,37 +203,35 @@ class NoiseKernel:
         n_batch, n = predictions.shape
         position = self.positions(predictions, np.float32)
         nearest = np.floor(position + np.float32(0.5))
-        delta = (position - nearest).astype(np.float64)
+        position -= nearest  # now the offset delta in [-1/2, 1/2]
         index = nearest.astype(np.intp)
         width = q + 1  # node q is node 0 across the seam (or, clamped, the last node)
         index += (np.arange(n_batch, dtype=np.intp) * width)[:, None]
         index = index.ravel()
+        delta = position.ravel()
         size = n_batch * width
         if uniform:
-            scale = 1.0 / n
-            mass = np.bincount(index, None, size) * scale
-            first = np.bincount(index, delta.ravel(), size) * scale
-            delta *= delta
-            second = np.bincount(index, delta.ravel(), size) * scale
+            mass = np.bincount(index, None, size) * (1.0 / n)
+            first = np.bincount(index, delta, size) * (1.0 / n)
+            second = np.bincount(index, delta * delta, size) * (1.0 / n)
         else:
-            weighted = delta * weights
-            mass = np.bincount(index, np.broadcast_to(weights, delta.shape).ravel(), size)
-            first = np.bincount(index, weighted.ravel(), size)
+            weighted = (position * weights).ravel()
+            mass = np.bincount(index, np.tile(weights, n_batch), size)
+            first = np.bincount(index, weighted, size)
             weighted *= delta
-            second = np.bincount(index, weighted.ravel(), size)
-        moments = [m.reshape(n_batch, width) for m in (mass, first, second)]
-        for m in moments:  # fold node q
-            if self.periodic:
-                m[:, 0] += m[:, q]
-            else:
-                m[:, q - 1] += m[:, q]
-        mass, first, second = (m[:, :q] for m in moments)
+            second = np.bincount(index, weighted, size)
+        moments = np.stack([mass, first, second]).reshape(3, n_batch, width)
+        if self.periodic:
+            moments[..., 0] += moments[..., q]
+        else:
+            moments[..., q - 1] += moments[..., q]
+        mass, first, second = moments[..., :q]
         centre = mass - second
         up = 0.5 * (second + first)  # to node j + 1
         down = 0.5 * (second - first)  # to node j - 1
         if self.periodic:
             return centre + np.roll(up, 1, axis=1) + np.roll(down, -1, axis=1)
-        histogram = centre.copy()
+        histogram = centre
         histogram[:, 1:] += up[:, :-1]
         histogram[:, -1] += up[:, -1]  # clamped: the overhang stays on the edge node
         histogram[:, :-1] += down[:, 1:]
