@@ -5,6 +5,9 @@
 ``infoseek.envs.beacon_v0`` expose ``parallel_env``, ``env`` (AEC) and ``raw_env``; their module
 docstrings are the manuals. Everything else is imported lazily on first attribute access, so
 ``import infoseek.envs.sensors`` does not import PettingZoo.
+
+Importing the package also tunes the C heap so that NumPy temporaries reuse freed pages
+(:mod:`infoseek.envs.heap`; opt out with ``INFOSEEK_HEAP_TUNING=0``).
 """
 
 from __future__ import annotations
@@ -12,6 +15,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+from infoseek.envs import heap as _heap  # noqa: F401  (tunes the heap once, on import)
 from infoseek.envs.registration import EnvSpec, make, register, registry
 
 __all__ = [
