@@ -329,7 +329,7 @@ def test_window_arc_contains_every_prediction_across_the_seam():
     seam = (np.pi + rng.normal(0.0, 0.2, 400) + np.pi) % (2 * np.pi) - np.pi
     middle = 0.3 + rng.normal(0.0, 0.2, 400)
     start, targets, weights, widths = pose_windows(kernel, np.stack([seam, middle]))
-    np.testing.assert_allclose(weights.sum(axis=2), 1.0, atol=1e-12)
+    np.testing.assert_allclose(weights.sum(axis=2), 1.0, atol=1e-6)  # float32 weights
     assert np.all(targets >= 0) and np.all(targets < widths[:, None, None])
     # The window is the short arc (~1.2 rad + guards), not the long way round.
     assert np.all(widths < 0.5 * kernel.n_points)
@@ -337,7 +337,7 @@ def test_window_arc_contains_every_prediction_across_the_seam():
     # predictions modulo the period.
     centre_nodes = (start[:, None] + (targets * weights).sum(axis=2)) * kernel.spacing
     residual = (centre_nodes + kernel.low - np.stack([seam, middle]) + np.pi) % (2 * np.pi)
-    np.testing.assert_allclose(residual - np.pi, 0.0, atol=1e-9)
+    np.testing.assert_allclose(residual - np.pi, 0.0, atol=2e-6)  # float32 positions
 
 
 def test_window_of_an_arc_wider_than_half_a_period_starting_far_from_the_first_prediction():
@@ -362,7 +362,7 @@ def test_window_of_an_arc_wider_than_half_a_period_starting_far_from_the_first_p
     assert np.all(targets >= 0) and np.all(targets < widths[:, None, None])
     centre_nodes = (start[:, None] + (targets * weights).sum(axis=2)) * kernel.spacing
     residual = (centre_nodes + kernel.low - predictions + np.pi) % period - np.pi
-    np.testing.assert_allclose(residual, 0.0, atol=1e-9)
+    np.testing.assert_allclose(residual, 0.0, atol=2e-6)  # float32 positions
     # The windowed pair entropies still equal the full circular grid.
     particle_weights = rng.gamma(1.0, size=300)
     particle_weights /= particle_weights.sum()

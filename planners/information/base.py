@@ -334,6 +334,15 @@ class BeliefMI:
             self._remember(key, compute())
         return self._cache[key]
 
+    def for_pose_set(
+        self, kind: str, poses: FloatArray, compute: Callable[[FloatArray], Any]
+    ) -> Any:
+        """``compute(poses)`` for a whole ``(P, pose_dim)`` pose set, computed once per set."""
+        key = (kind, poses.tobytes())
+        if key not in self._cache:
+            self._remember(key, compute(poses))
+        return self._cache[key]
+
     def per_pose(
         self,
         kind: str,
@@ -376,7 +385,7 @@ class BeliefMI:
 
 
 def _nbytes(item: Any) -> int:
-    if isinstance(item, np.ndarray):
+    if isinstance(item, np.ndarray) or hasattr(item, "nbytes"):
         return int(item.nbytes)
     if isinstance(item, tuple | list):
         return sum(_nbytes(part) for part in item)

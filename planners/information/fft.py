@@ -89,22 +89,25 @@ class AdditiveFFTEstimator(MIEstimator):
         return np.stack(belief.per_pose("predictions", poses, compute))
 
     def _sides(self, belief: BeliefMI, poses: FloatArray) -> WindowSide:
-        """Windowed stencils of a pose set, the per-pose windows cached."""
+        """Windowed stencils of a pose set (cached per set; the per-pose windows per pose)."""
 
         def compute(missing: FloatArray) -> list[tuple[object, ...]]:
             start, targets, weights, widths = pose_windows(
-                self.kernel, self.predictions(belief, missing).astype(np.float64)
+                self.kernel, self.predictions(belief, missing)
             )
             return [(start[p], targets[p], weights[p], widths[p]) for p in range(len(start))]
 
-        entries = belief.per_pose("window", poses, compute)
-        return WindowSide(
-            self.kernel,
-            np.array([e[0] for e in entries], dtype=np.int64),
-            np.stack([e[1] for e in entries]),
-            np.stack([e[2] for e in entries]),
-            np.array([e[3] for e in entries], dtype=np.int64),
-        )
+        def side(pose_set: FloatArray) -> WindowSide:
+            entries = belief.per_pose("window", pose_set, compute)
+            return WindowSide(
+                self.kernel,
+                np.array([e[0] for e in entries], dtype=np.int64),
+                np.stack([e[1] for e in entries]),
+                np.stack([e[2] for e in entries]),
+                np.array([e[3] for e in entries], dtype=np.int64),
+            )
+
+        return belief.for_pose_set("side", poses, side)
 
     # -- estimates
     def singles(self, belief: BeliefMI, poses: FloatArray) -> FloatArray:

@@ -103,6 +103,8 @@ class NoiseKernel:
             observation, up to ``log spacing``).
         window_half_width: Half width ``h`` (nodes) of the truncated kernel of windowed grids.
         window_taps: ``(2h + 1,)`` truncated kernel.
+        window_matrices: Toeplitz matrices of the truncated kernel by window width (filled by
+            :mod:`~infoseek.planners.information.windows` as windows are used).
     """
 
     def __init__(self, sensor: Sensor, n_points: int) -> None:
@@ -136,6 +138,7 @@ class NoiseKernel:
         density /= density.sum()
         self.entropy = float(entropy(density, (0,)))
         self._build_window(offsets, density)
+        self.window_matrices: dict[int, NDArray[np.float32]] = {}
         circular = np.zeros(length)
         circular[offsets % length] = density
         self.length = length
@@ -329,7 +332,7 @@ class NoiseKernel:
 def stencil_weights(delta: NDArray[Any]) -> FloatArray:
     """``(..., 3)`` quadratic weights of nodes ``j - 1, j, j + 1`` for offsets ``delta``."""
     half_sq = 0.5 * delta * delta
-    weights = np.empty(delta.shape + (3,))
+    weights = np.empty(delta.shape + (3,), dtype=np.result_type(delta.dtype, np.float32))
     weights[..., 0] = half_sq - 0.5 * delta
     weights[..., 1] = 1.0 - 2.0 * half_sq
     weights[..., 2] = half_sq + 0.5 * delta

@@ -8,7 +8,7 @@ shortest arc whenever the predictions span less than half a period), window node
 global node ``(s_p + j) mod Q``; non-periodic domains take ``s_p = max(min_n nearest_n - 1, 0)``
 with the clamped stencil. As ``s_p`` is an integer, each stencil is exactly the full-grid
 stencil relabelled. The pair histogram is ``H_ab = S_a^T diag(w) S_b`` (``S_p`` the ``N x W``
-dense stencil matrix; small matrix products in blocks of 32 particles), and the noise
+dense stencil matrix, float32; one matrix product per batch of pairs), and the noise
 convolution is the *linear* one, ``D = K_a H_ab K_b^T`` with ``K`` the ``(W + 2h) x W``
 Toeplitz matrix of the kernel truncated to ``|offset| <= h`` nodes, ``h`` the smallest half
 width whose discarded noise mass is below ``1e-10``. Output node ``x`` of pose ``p`` is global
@@ -28,16 +28,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from infoseek.planners.information.base import FloatArray
-from infoseek.planners.information.channels import BATCH_BUDGET, entropy
+from infoseek.planners.information.channels import BATCH_BUDGET
 from infoseek.planners.information.noise_kernel import NoiseKernel, stencil_weights
 
 __all__ = ["WindowSide", "full_grid_pair_entropies", "pose_windows", "windowed_pair_entropies"]
 
 _WINDOW_GEMM_CELLS = 24 * 24  # windowed pair histograms up to this size: matrix products
-# Particles per block of the blocked stencil products: OpenBLAS multithreads a GEMM once
-# m * n * k exceeds 2^18, which on a shared 2-core machine costs far more than it saves; blocks
-# of 32 particles keep a 9-candidate x 9-partner product (90 x 90 x 32) single-threaded.
-_GEMM_BLOCK = 32
 _WINDOW_SCATTER_ELEMENTS = 1 << 20  # stencil entries per chunk of the windowed scatter histogram
 _FFT_CHUNK_ELEMENTS = 1 << 18  # stencil entries (N 9 per pair) handled per full-grid chunk
 
@@ -58,21 +54,21 @@ def pose_windows(
         of window nodes each pose needs.
     """
     q = kernel.n_points
-    position = (np.asarray(predictions, dtype=np.float64) - kernel.low) * (1.0 / kernel.spacing)
-    offsets = np.arange(-1, 2)
+    position = kernel.positions(predictions, np.float32)  # in [0, Q) or clamped
+    offsets = np.arange(-1, 2, dtype=np.int32)
     if kernel.periodic:
-        if position.size and (position.min() < 0.0 or position.max() >= q):
-            position %= q
         # Arc containing every prediction, measured from the first one: exact (the shortest
         # arc) whenever the predictions span less than half a period.
-        deviation = position - position[:, :1]
-        deviation += 0.5 * q
-        deviation %= q
-        lowest = deviation.min(axis=1) - 0.5 * q + position[:, 0]
+        half = np.float32(0.5 * q)
+        deviation = position - position[:, :1]  # in (-Q, Q)
+        deviation[deviation < -half] += np.float32(q)
+        deviation[deviation >= half] -= np.float32(q)
+        lowest = deviation.min(axis=1).astype(np.float64) + position[:, 0]
         start = np.floor(lowest).astype(np.int64) - 1
-        relative = position - start[:, None]
-        relative %= q
-        nearest_float = np.floor(relative + 0.5)
+        relative = position - start[:, None].astype(np.float32)  # in (-Q, Q + 2)
+        relative[relative < 0] += np.float32(q)
+        relative[relative >= q] -= np.float32(q)
+        nearest_float = np.floor(relative + np.float32(0.5))
         delta = relative - nearest_float
         nearest = nearest_float.astype(np.intp)
         # When the predictions span more than half a period the arc measured from the first
@@ -83,44 +79,43 @@ def pose_windows(
         if wrapped.any():
             start[wrapped] -= 1
             nearest[wrapped] += 1
-        targets = nearest[..., None] + offsets
+        targets = nearest.astype(np.int32)[..., None] + offsets
     else:
-        np.clip(position, 0.0, q - 1.0, out=position)
-        nearest_float = np.floor(position + 0.5)
+        nearest_float = np.floor(position + np.float32(0.5))
         delta = position - nearest_float
         nearest = nearest_float.astype(np.intp)
         start = np.maximum(nearest.min(axis=1) - 1, 0).astype(np.int64)
         targets = np.clip(nearest[..., None] + offsets, 0, q - 1) - start[:, None, None]
+        targets = targets.astype(np.int32)
     weights = stencil_weights(delta)
     width = targets.max(axis=(1, 2)).astype(np.int64) + 1
     return start, targets, weights, width
 
 
-def _stencil_matrices(targets: NDArray[np.intp], weights: FloatArray, width: int) -> FloatArray:
-    """Dense stencil matrices ``S[p, x, n]`` (weight of particle ``n`` at window node ``x``).
-
-    Stored particle-blocked as ``(B, P * width, _GEMM_BLOCK)`` (``N`` zero-padded to ``B``
-    blocks) so that the pair histograms are a stack of small matrix products (see
-    :data:`_GEMM_BLOCK`).
-    """
+def _stencil_matrices(targets: NDArray[np.intp], weights: FloatArray, width: int) -> NDArray[Any]:
+    """Dense float32 stencil matrices ``(P * width, N)``: row ``p * width + x`` holds the weight
+    of every particle at window node ``x`` of pose ``p`` (the three nodes of a particle's
+    stencil are distinct rows, so every entry is assigned at most once)."""
     n_poses, n = targets.shape[:2]
-    blocks = -(-n // _GEMM_BLOCK)
-    particle = np.arange(n)
-    column = (particle // _GEMM_BLOCK) * (n_poses * width * _GEMM_BLOCK) + particle % _GEMM_BLOCK
-    flat = (targets + (np.arange(n_poses) * width)[:, None, None]) * _GEMM_BLOCK
-    flat += column[:, None]
-    size = blocks * n_poses * width * _GEMM_BLOCK
-    return np.bincount(flat.ravel(), weights.ravel(), size).reshape(
-        blocks, n_poses * width, _GEMM_BLOCK
-    )
+    flat = (targets + (np.arange(n_poses, dtype=np.intp) * width)[:, None, None]) * n
+    flat += np.arange(n)[:, None]
+    dense = np.zeros(n_poses * width * n, dtype=np.float32)
+    dense[flat.ravel()] = weights.ravel()
+    return dense.reshape(n_poses * width, n)
 
 
-def _convolution_matrix(kernel: NoiseKernel, width: int) -> FloatArray:
-    """``(width + 2 hw, width)`` Toeplitz matrix of the truncated noise kernel (linear conv)."""
-    half = kernel.window_half_width
-    lag = np.arange(width + 2 * half)[:, None] - np.arange(width)[None, :]
-    inside = (lag >= 0) & (lag <= 2 * half)
-    return np.where(inside, kernel.window_taps[np.clip(lag, 0, 2 * half)], 0.0)
+def _convolution_matrix(kernel: NoiseKernel, width: int) -> NDArray[np.float32]:
+    """``(width + 2 hw, width)`` float32 Toeplitz matrix of the truncated noise kernel (linear
+    convolution), built once per width and kept by the kernel."""
+    matrix = kernel.window_matrices.get(width)
+    if matrix is None:
+        half = kernel.window_half_width
+        lag = np.arange(width + 2 * half)[:, None] - np.arange(width)[None, :]
+        inside = (lag >= 0) & (lag <= 2 * half)
+        matrix = np.where(inside, kernel.window_taps[np.clip(lag, 0, 2 * half)], 0.0)
+        matrix = matrix.astype(np.float32)
+        kernel.window_matrices[width] = matrix
+    return matrix
 
 
 class WindowSide:
@@ -158,22 +153,22 @@ class WindowSide:
             nodes = self.start[:, None] - kernel.window_half_width + np.arange(self.out)
             self.mask = ((nodes >= 0) & (nodes < kernel.n_points)).astype(np.float64)
 
+    @property
+    def nbytes(self) -> int:
+        """Memory held (stencils included, as far as built)."""
+        built = sum(int(m.nbytes) for m in self._stencils.values())
+        return int(self.targets.nbytes + self.weights.nbytes) + built
+
     @classmethod
     def from_predictions(cls, kernel: NoiseKernel, predictions: NDArray[Any]) -> WindowSide:
         """The side of ``(P, N)`` predictions."""
         return cls(kernel, *pose_windows(kernel, predictions))
 
-    def stencils(self, particle_weights: FloatArray | None) -> FloatArray:
-        """Blocked stencil matrices (:func:`_stencil_matrices`), scaled by ``particle_weights``."""
-        key = particle_weights is not None
-        if key not in self._stencils:
-            weights = (
-                self.weights
-                if particle_weights is None
-                else (self.weights * particle_weights[:, None])
-            )
-            self._stencils[key] = _stencil_matrices(self.targets, weights, self.width)
-        return self._stencils[key]
+    def stencils(self) -> NDArray[np.float32]:
+        """Dense stencil matrices (:func:`_stencil_matrices`), built once."""
+        if not self._stencils:
+            self._stencils[False] = _stencil_matrices(self.targets, self.weights, self.width)
+        return self._stencils[False]
 
 
 def windowed_pair_entropies(
@@ -195,8 +190,11 @@ def windowed_pair_entropies(
     conv_b = conv_a if width_b == width_a else _convolution_matrix(kernel, width_b)
     gemm = width_a * width_b <= _WINDOW_GEMM_CELLS
     if gemm:
-        stencil_a = side_a.stencils(particle_weights)
-        stencil_b = side_b.stencils(None)
+        uniform = particle_weights.min() == particle_weights.max()
+        stencil_a = side_a.stencils()
+        if not uniform:
+            stencil_a = stencil_a * particle_weights.astype(np.float32)
+        stencil_b = side_b.stencils()
     cells = max(width_a * width_b, out_a * out_b)
     chunk = max(1, BATCH_BUDGET // (4 * n_b * cells))
     if not gemm:
@@ -207,8 +205,10 @@ def windowed_pair_entropies(
         end = min(begin + chunk, n_a)
         size = end - begin
         if gemm:
-            left = stencil_a[:, begin * width_a : end * width_a]
-            histogram = np.matmul(left, stencil_b.transpose(0, 2, 1)).sum(axis=0)
+            left = stencil_a[begin * width_a : end * width_a]
+            histogram = left @ stencil_b.T  # one float32 matrix product for the whole batch
+            if uniform:
+                histogram *= np.float32(particle_weights[0])
             histogram = histogram.reshape(size, width_a, n_b, width_b).transpose(0, 2, 1, 3)
         else:
             flat = (
@@ -219,16 +219,17 @@ def windowed_pair_entropies(
             histogram = np.bincount(
                 flat.ravel(), weight.ravel(), size * n_b * width_a * width_b
             ).reshape(size, n_b, width_a, width_b)
-        # Linear convolution along both axes: (conv_a H conv_b^T), axes (c, m, out_b, out_a).
-        # Stacked small products (each below OpenBLAS's threading threshold).
+            histogram = histogram.astype(np.float32)
+        # Linear convolution along both axes: (conv_a H conv_b^T), axes (c, m, out_b, out_a),
+        # in float32 (probabilities to ~1e-7: far below any planning or test tolerance).
         smoothed = np.matmul(histogram, conv_b.T)  # (size, n_b, width_a, out_b)
         density = np.matmul(smoothed.transpose(0, 1, 3, 2), conv_a.T)  # (.., out_b, out_a)
         if side_a.mask is not None and side_b.mask is not None:
             density *= side_a.mask[begin:end, None, None, :]
             density *= side_b.mask[None, :, :, None]
-        density = np.maximum(density.reshape(size, n_b, -1), 0.0)
-        density /= np.maximum(density.sum(axis=2, keepdims=True), 1e-30)
-        joint[begin:end] = entropy(density, (2,))
+        density = np.maximum(density.reshape(size, n_b, -1), np.float32(1e-38))
+        density /= density.sum(axis=2, keepdims=True, dtype=np.float64).astype(np.float32)
+        joint[begin:end] = -np.sum(density * np.log(density), axis=2, dtype=np.float64)
     return joint
 
 
