@@ -16,7 +16,7 @@ particle's SNR); for an additive-noise sensor ``s`` is constant.
 ``s_max`` (the sensor's ``max_kernel_shape``, e.g. ``beacon_v0``'s noise floor 5, or the
 ``max_shape`` option), and stores the Fourier coefficients
 ``F(k; s_g) = int f_{s_g}(d) exp(-i w_k d) dd`` (``w_k = 2 pi k / L``) up to the harmonic ``K``
-beyond which every ``|F| < 1e-9``, and the kernel entropies ``h(s_g) = -int f log f``
+beyond which every ``|F| < 1e-8``, and the kernel entropies ``h(s_g) = -int f log f``
 (trapezoid rule on the fine grid). Shapes between nodes are interpolated linearly in ``u``.
 
 **Channels.** Pose ``p`` and particle ``n`` give the spectrum
@@ -54,7 +54,7 @@ __all__ = ["KernelTable", "ShiftKernelEstimator"]
 #: Shape-node spacing in ``u = log(1 + s)``.
 SHAPE_SPACING = 1.0 / 128.0
 #: Fourier coefficients below this (relative to ``F(0) = 1``) are dropped.
-COEFFICIENT_TOLERANCE = 1e-9
+COEFFICIENT_TOLERANCE = 1e-8
 #: Default ``max_shape`` for sensors whose shape is unbounded.
 UNBOUNDED_MAX_SHAPE = 64.0
 #: Largest harmonic the table keeps.
@@ -184,7 +184,8 @@ class ShiftKernelEstimator(MIEstimator):
 
     # -- per-pose work
     def _spectra(self, poses: FloatArray, belief: BeliefMI) -> tuple[np.ndarray, FloatArray]:
-        """``(X (P, N, K + 1) complex64, h (P, N))`` kernel spectra and entropies."""
+        """``(X (P, Q // 2 + 1, N) complex64, h (P, N))`` kernel spectra (harmonic axis before
+        the particle axis; zero above ``K``) and kernel entropies."""
         centre, shape = self.sensor.kernel_parameters(poses, belief.particles)  # type: ignore[attr-defined]
         centre = np.asarray(centre, dtype=np.float64)
         shape = np.asarray(shape, dtype=np.float64)
@@ -199,30 +200,46 @@ class ShiftKernelEstimator(MIEstimator):
         coefficients, h = self.table.interpolate(shape)
         angle = (centre - self.table.low) * self._frequencies[1]
         step = (np.cos(angle) - 1j * np.sin(angle)).astype(np.complex64)  # e^{-i w_1 (c - low)}
-        spectra = np.empty(expected + (self.harmonics + 1,), dtype=np.complex64)
-        spectra[..., 0] = 1.0
+        n_poses, n = expected
+        # Q // 2 + 1 rows, the ones above K zero, so the inverse real FFT on Q nodes needs no
+        # padding copy.
+        spectra = np.empty((n_poses, self.n_points // 2 + 1, n), dtype=np.complex64)
+        spectra[:, self.harmonics + 1 :] = 0.0
+        spectra[:, 0] = 1.0
         if self.harmonics >= 1:
-            spectra[..., 1] = step
+            spectra[:, 1] = step
         for k in range(2, self.harmonics + 1):
-            np.multiply(spectra[..., k - 1], step, out=spectra[..., k])
-        spectra *= coefficients[..., : self.harmonics + 1]
+            np.multiply(spectra[:, k - 1], step, out=spectra[:, k])
+        kept = spectra[:, : self.harmonics + 1]
+        kept *= np.swapaxes(coefficients[..., : self.harmonics + 1], 1, 2)
         return spectra, h
 
-    def channels(self, belief: BeliefMI, poses: FloatArray) -> tuple[np.ndarray, FloatArray]:
-        """``(P, Q, N)`` float32 channels (cell probabilities of every particle, cell axis first)
-        and ``(P,)`` conditional entropies, cached per pose."""
+    def spectra(self, belief: BeliefMI, poses: FloatArray) -> tuple[np.ndarray, FloatArray]:
+        """``(X (P, K + 1, N), conditional (P,))``: kernel spectra and ``H(z | theta)``, cached
+        per pose."""
 
         def compute(missing: FloatArray) -> list[tuple[np.ndarray, float]]:
             spectra, h = self._spectra(missing, belief)
-            rows = scipy.fft.irfft(spectra, n=self.n_points, axis=-1)  # (P, N, Q) float32
             conditional = h @ belief.weights
-            return [
-                (np.ascontiguousarray(rows[p].T), float(conditional[p]))
-                for p in range(missing.shape[0])
-            ]
+            return [(spectra[p], float(conditional[p])) for p in range(missing.shape[0])]
 
-        entries = belief.per_pose(f"fourier/{self.n_points}", poses, compute)
-        return np.stack([c for c, _ in entries]), np.array([h for _, h in entries])
+        entries = belief.per_pose(f"spectra/{self.n_points}", poses, compute)
+        return np.stack([x for x, _ in entries]), np.array([h for _, h in entries])
+
+    def channels(self, belief: BeliefMI, poses: FloatArray) -> tuple[np.ndarray, FloatArray]:
+        """``(P, Q, N)`` float32 channels (cell probabilities of every particle, cell axis first)
+        and ``(P,)`` conditional entropies; cached per pose and per pose set."""
+
+        def compute(missing: FloatArray) -> list[tuple[np.ndarray, float]]:
+            spectra, conditional = self.spectra(belief, missing)
+            rows = scipy.fft.irfft(spectra, n=self.n_points, axis=1)  # (P, Q, N) float32
+            return [(rows[p], float(conditional[p])) for p in range(missing.shape[0])]
+
+        def stacked(pose_set: FloatArray) -> tuple[np.ndarray, FloatArray]:
+            entries = belief.per_pose(f"fourier/{self.n_points}", pose_set, compute)
+            return np.stack([c for c, _ in entries]), np.array([h for _, h in entries])
+
+        return belief.for_pose_set(f"fourier-set/{self.n_points}", poses, stacked)
 
     # -- estimates
     def singles(self, belief: BeliefMI, poses: FloatArray) -> FloatArray:
@@ -232,20 +249,20 @@ class ShiftKernelEstimator(MIEstimator):
     def _single_entropies(
         self, belief: BeliefMI, poses: FloatArray
     ) -> tuple[FloatArray, FloatArray]:
-        """Differential ``(H(z), H(z | theta))`` of single observations."""
+        """Differential ``(H(z), H(z | theta))`` of single observations (from the spectra's
+        weighted sum, no channels)."""
         n = belief.n_particles
-        chunk = max(1, BATCH_BUDGET // (4 * n * (self.harmonics + 1)))
+        chunk = max(1, BATCH_BUDGET // (4 * n * (self.n_points // 2 + 1)))
         weights = belief.weights.astype(np.complex64)
         entropy_z = np.empty(poses.shape[0])
         conditional = np.empty(poses.shape[0])
         for start in range(0, poses.shape[0], chunk):
             block = poses[start : start + chunk]
             part = slice(start, start + block.shape[0])
-            spectra, h = self._spectra(block, belief)
-            mixture = np.matmul(weights, spectra)  # (P, K + 1)
+            spectra, conditional[part] = self.spectra(belief, block)
+            mixture = np.matmul(spectra, weights)  # (P, Q // 2 + 1)
             density = scipy.fft.irfft(mixture.astype(np.complex128), n=self.n_points, axis=-1)
             entropy_z[part] = entropy(density, (1,)) + self.log_spacing
-            conditional[part] = h @ belief.weights
         return entropy_z, conditional
 
     def pairs(self, belief: BeliefMI, poses_a: FloatArray, poses_b: FloatArray) -> FloatArray:
@@ -270,7 +287,7 @@ class ShiftKernelEstimator(MIEstimator):
             channels = []
             for j in range(k):
                 channel, h = self.channels(belief, block[:, j])
-                channels.append(np.swapaxes(channel, 1, 2).astype(np.float64))
+                channels.append(np.swapaxes(channel, 1, 2).astype(np.float64))  # (P, N, Q)
                 conditional[part] += h
             entropy_z[part] = joint_entropies(channels, belief.weights)[0] + k * self.log_spacing
         return JointEntropies.from_entropies(entropy_z, conditional)
