@@ -1,15 +1,21 @@
 """``infoseek timing``: speed of the hot paths, measured on the machine it runs on.
 
-Each benchmark runs a warm-up call, then ``--repeats`` timed calls of :func:`time.perf_counter`;
-the table reports the median and the interquartile range in milliseconds, plus the machine
-(CPU model, logical cores, Python and NumPy versions). Benchmarks:
+Each benchmark makes a warm-up call, then ``--repeats`` timed calls (:func:`time.perf_counter`);
+the table reports the median and interquartile range in milliseconds, the target where the MI
+engine has one, and the machine (CPU model, logical cores, Python, NumPy and the BLAS in use).
 
-* ``mi_single_fast``: single-node mutual information (eq. 20) of 64 candidate poses for a
-  bearing sensor and N = 10,000 particles (a random, non-uniform belief), the FFT fast path;
-* ``mi_single_general``: the same inputs through the general quadrature path, and the ratio;
-* ``plan_single_10``, ``plan_pairwise_10``: one ``act`` call of ``SingleNodePlanner`` and of
-  ``PairwiseNodePlanner`` for 10 airplanes on ``bearings_v0`` (2000 planning particles),
-  timed over successive steps of one seeded episode;
+* ``mi_single_fast``: single-node MI (eq. 20) of 64 candidate poses, bearing sensor,
+  N = 10,000 weighted particles (three random blobs), the ``fft`` estimator;
+* ``mi_single_general``: the same through the general ``quadrature`` estimator (and the ratio);
+* ``plan_single_10``, ``plan_pairwise_10``: one ``act`` of ``SingleNodePlanner`` /
+  ``PairwiseNodePlanner`` for 10 airplanes on ``bearings_v0`` (2000 planning particles), over
+  successive steps of one seeded episode after its first step;
+* ``plan_single_beacon_4``, ``plan_pairwise_beacon_4``: the same for 4 quadrotors on
+  ``beacon_v0`` (defaults: 2000 particles, the filters' noise floor, the ``fourier`` estimator);
+* ``*_first_step``: the first ``act`` of an episode (uniform prior), one per seeded episode;
+* ``decision_pairwise_4_uniform``: one coordinated decision of 4 bearing sensors at the uniform
+  prior (N = 2000, 8 candidate positions per sensor on a circle of radius 1, eq. 22 with the
+  penalty coordination, 3 Gauss-Seidel sweeps);
 * ``env_step_bearings_4``, ``env_step_beacon_4``: one ``env.step`` with 4 agents and 2000
   particles each and random actions (no rendering).
 
@@ -29,14 +35,31 @@ from typing import Any
 
 import numpy as np
 
-BENCHMARKS = (
-    "mi_single_fast",
-    "mi_single_general",
-    "plan_single_10",
-    "plan_pairwise_10",
-    "env_step_bearings_4",
-    "env_step_beacon_4",
-)
+#: Benchmark name -> target median in ms (None: no target).
+TARGETS: dict[str, float | None] = {
+    "mi_single_fast": 5.0,
+    "mi_single_general": None,
+    "plan_single_10": 15.0,
+    "plan_single_10_first_step": 45.0,
+    "plan_pairwise_10": 40.0,
+    "plan_pairwise_10_first_step": 120.0,
+    "plan_single_beacon_4": 50.0,
+    "plan_single_beacon_4_first_step": None,
+    "plan_pairwise_beacon_4": 100.0,
+    "plan_pairwise_beacon_4_first_step": None,
+    "decision_pairwise_4_uniform": 10.0,
+    "env_step_bearings_4": None,
+    "env_step_beacon_4": None,
+}
+BENCHMARKS = tuple(TARGETS)
+
+#: (planner, env id, agents) of the planning benchmarks.
+_PLANNING = {
+    "plan_single_10": ("single", "bearings_v0", 10),
+    "plan_pairwise_10": ("pairwise", "bearings_v0", 10),
+    "plan_single_beacon_4": ("single", "beacon_v0", 4),
+    "plan_pairwise_beacon_4": ("pairwise", "beacon_v0", 4),
+}
 
 
 def add_timing_arguments(parser: argparse.ArgumentParser) -> None:
@@ -49,7 +72,9 @@ def add_timing_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def machine_description() -> dict[str, Any]:
-    """CPU model, logical cores and library versions of this machine."""
+    """CPU model, logical cores, library versions and the BLAS of this machine."""
+    from infoseek.envs import heap
+
     model = platform.processor() or platform.machine()
     try:
         with open("/proc/cpuinfo") as cpuinfo:
@@ -65,8 +90,20 @@ def machine_description() -> dict[str, Any]:
         "logical_cores": cores,
         "python": platform.python_version(),
         "numpy": np.__version__,
+        "blas": _blas_description(),
+        "heap_tuning": heap.tuned(),
         "platform": platform.platform(),
     }
+
+
+def _blas_description() -> str:
+    """The BLAS NumPy uses and its kernel, as NumPy reports them."""
+    try:
+        config = np.show_config(mode="dicts")  # type: ignore[call-arg]
+        blas = config.get("Build Dependencies", {}).get("blas", {})
+        return f"{blas.get('name', '?')} {blas.get('version', '')}".strip()
+    except Exception:  # older NumPy without mode="dicts"
+        return "unknown"
 
 
 def _measure(call: Callable[[], Any], repeats: int) -> np.ndarray:
@@ -86,7 +123,7 @@ def _random_belief(n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.nda
     return particles, weights / weights.sum()
 
 
-def _mi_calls(repeats: int) -> dict[str, np.ndarray]:
+def _mi_calls(repeats: int, selected: set[str]) -> dict[str, np.ndarray]:
     from infoseek.envs.sensors import BearingSensor
     from infoseek.planners.information import mutual_information_batch
 
@@ -94,28 +131,31 @@ def _mi_calls(repeats: int) -> dict[str, np.ndarray]:
     particles, weights = _random_belief(10_000, rng)
     poses = rng.uniform(0.0, 40.0, size=(64, 1, 2))
     sensor = BearingSensor(sigma=0.1)
-    return {
-        "mi_single_fast": _measure(
+    results = {}
+    if "mi_single_fast" in selected:
+        results["mi_single_fast"] = _measure(
             lambda: mutual_information_batch(sensor, poses, particles, weights, method="fft"),
             repeats,
-        ),
-        "mi_single_general": _measure(
+        )
+    if "mi_single_general" in selected:
+        results["mi_single_general"] = _measure(
             lambda: mutual_information_batch(
                 sensor, poses, particles, weights, method="quadrature"
             ),
             max(3, repeats // 5),
-        ),
-    }
+        )
+    return results
 
 
-def _planning_times(planner_name: str, n_agents: int, repeats: int) -> np.ndarray:
+def _planning_times(planner_name: str, env_id: str, n_agents: int, repeats: int) -> np.ndarray:
+    """Steady-state ``act`` times over successive steps of one episode (after its first)."""
     from infoseek.envs import make
     from infoseek.experiments.policies import make_policy
 
-    env = make("bearings_v0", n_agents=n_agents, n_particles=2000, max_cycles=repeats + 5)
+    env = make(env_id, n_agents=n_agents, n_particles=2000, max_cycles=repeats + 5)
     observations, infos = env.reset(seed=1)
     policy = make_policy(planner_name, env, seed=1)
-    policy.act(observations, infos)  # warm-up
+    observations, _, _, _, infos = env.step(policy.act(observations, infos))  # first step
     times = []
     while env.agents and len(times) < repeats:
         start = time.perf_counter()
@@ -124,6 +164,70 @@ def _planning_times(planner_name: str, n_agents: int, repeats: int) -> np.ndarra
         observations, _, _, _, infos = env.step(actions)
     env.close()
     return 1e3 * np.asarray(times)
+
+
+def _first_step_times(planner_name: str, env_id: str, n_agents: int, repeats: int) -> np.ndarray:
+    """The first ``act`` of ``repeats`` seeded episodes (a fresh planner each)."""
+    from infoseek.envs import make
+    from infoseek.experiments.policies import make_policy
+
+    env = make(env_id, n_agents=n_agents, n_particles=2000, max_cycles=5)
+    times = []
+    for episode in range(repeats + 1):  # episode 0 is the warm-up
+        observations, infos = env.reset(seed=100 + episode)
+        policy = make_policy(planner_name, env, seed=100 + episode)
+        start = time.perf_counter()
+        policy.act(observations, infos)
+        times.append(time.perf_counter() - start)
+    env.close()
+    return 1e3 * np.asarray(times[1:])
+
+
+def coordinated_decision(rng: np.random.Generator) -> Callable[[], Any]:
+    """The ``decision_pairwise_4_uniform`` benchmark as a callable (see the module docstring)."""
+    from infoseek.envs.sensors import BearingSensor
+    from infoseek.planners.coordination import PenaltySettings, coordinate
+    from infoseek.planners.information import make_estimator
+
+    sensor = BearingSensor(sigma=0.1)
+    particles = rng.uniform(0.0, 40.0, size=(2000, 2))
+    weights = np.full(2000, 1.0 / 2000)
+    centres = np.array([[12.0, 12.0], [28.0, 12.0], [12.0, 28.0], [28.0, 28.0]])
+    angles = 2.0 * np.pi * np.arange(8) / 8
+    ring = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    positions = [centre + ring for centre in centres]  # (8, 2) candidates per sensor
+    controls = [np.arange(8, dtype=np.float64)[:, None]] * 4
+    estimator = make_estimator("auto", sensor, n_observations=2)
+    settings = PenaltySettings(min_separation=1.0, max_iterations=3)
+    n_vehicles = len(centres)
+
+    def decide() -> Any:
+        belief = estimator.bind(particles, weights)
+        singles = [belief.single(p) for p in positions]
+        columns: list[dict[tuple[int, int], np.ndarray]] = [{} for _ in range(n_vehicles)]
+
+        def utility(i: int, plans: np.ndarray) -> np.ndarray:
+            missing = [j for j in range(n_vehicles) if j != i and (j, plans[j]) not in columns[i]]
+            if missing:
+                others = np.array([positions[j][plans[j]] for j in missing])
+                pairs = belief.pairs(positions[i], others)
+                for column, j in enumerate(missing):
+                    columns[i][(j, int(plans[j]))] = pairs[:, column]
+            total = (2 - n_vehicles) * singles[i]
+            for j in range(n_vehicles):
+                if j != i:
+                    total = total + columns[i][(j, int(plans[j]))]
+            return total
+
+        return coordinate(
+            controls,
+            positions,
+            utility,
+            settings,
+            initial_indices=[int(np.argmax(s)) for s in singles],
+        )
+
+    return decide
 
 
 def _env_step_times(env_id: str, repeats: int) -> np.ndarray:
@@ -143,42 +247,66 @@ def _env_step_times(env_id: str, repeats: int) -> np.ndarray:
     return 1e3 * np.asarray(times)
 
 
+def _run(selected: list[str], repeats: int) -> dict[str, np.ndarray]:
+    results: dict[str, np.ndarray] = {}
+    results.update(_mi_calls(repeats, set(selected)))
+    for name, (planner, env_id, n_agents) in _PLANNING.items():
+        if name in selected:
+            results[name] = _planning_times(planner, env_id, n_agents, repeats)
+        if f"{name}_first_step" in selected:
+            results[f"{name}_first_step"] = _first_step_times(planner, env_id, n_agents, repeats)
+    if "decision_pairwise_4_uniform" in selected:
+        decide = coordinated_decision(np.random.default_rng(3))
+        results["decision_pairwise_4_uniform"] = _measure(decide, repeats)
+    for name, env_id in (
+        ("env_step_bearings_4", "bearings_v0"),
+        ("env_step_beacon_4", "beacon_v0"),
+    ):
+        if name in selected:
+            results[name] = _env_step_times(env_id, repeats)
+    return results
+
+
 def run_timing(args: argparse.Namespace) -> int:
     """Run the selected benchmarks and print the table; returns the exit code."""
     if args.repeats < 1:
         raise ValueError(f"--repeats must be >= 1, got {args.repeats}")
     selected = list(args.only) if args.only else list(BENCHMARKS)
-    results: dict[str, np.ndarray] = {}
-    if {"mi_single_fast", "mi_single_general"} & set(selected):
-        results.update(_mi_calls(args.repeats))
-    if "plan_single_10" in selected:
-        results["plan_single_10"] = _planning_times("single", 10, args.repeats)
-    if "plan_pairwise_10" in selected:
-        results["plan_pairwise_10"] = _planning_times("pairwise", 10, args.repeats)
-    if "env_step_bearings_4" in selected:
-        results["env_step_bearings_4"] = _env_step_times("bearings_v0", args.repeats)
-    if "env_step_beacon_4" in selected:
-        results["env_step_beacon_4"] = _env_step_times("beacon_v0", args.repeats)
-
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        if args.json.exists() and not os.access(args.json, os.W_OK):
+            raise ValueError(f"--json: cannot write {args.json}")
+    results = _run(selected, args.repeats)
     machine = machine_description()
     print(
         f"machine: {machine['cpu']}, {machine['logical_cores']} logical cores, "
-        f"Python {machine['python']}, NumPy {machine['numpy']}"
+        f"Python {machine['python']}, NumPy {machine['numpy']}, BLAS {machine['blas']}, "
+        f"heap tuning {'on' if machine['heap_tuning'] else 'off'}"
     )
-    print(f"{'benchmark':<22} {'median ms':>10} {'q25 ms':>9} {'q75 ms':>9} {'calls':>6}")
-    rows = {}
+    header = f"{'benchmark':<34} {'median ms':>10} {'q25 ms':>9} {'q75 ms':>9} {'calls':>6}"
+    print(f"{header} {'target ms':>10}")
+    rows: dict[str, Any] = {}
     for name in BENCHMARKS:
-        if name not in results or name not in selected:
+        if name not in results:
             continue
         times = results[name]
         q25, median, q75 = np.percentile(times, [25, 50, 75])
-        rows[name] = {"median_ms": median, "q25_ms": q25, "q75_ms": q75, "calls": len(times)}
-        print(f"{name:<22} {median:>10.2f} {q25:>9.2f} {q75:>9.2f} {len(times):>6}")
+        target = TARGETS[name]
+        rows[name] = {
+            "median_ms": median,
+            "q25_ms": q25,
+            "q75_ms": q75,
+            "calls": len(times),
+            "target_ms": target,
+        }
+        verdict = (
+            "" if target is None else f"{target:>10.0f} {'met' if median <= target else 'missed'}"
+        )
+        print(f"{name:<34} {median:>10.2f} {q25:>9.2f} {q75:>9.2f} {len(times):>6} {verdict}")
     if "mi_single_fast" in rows and "mi_single_general" in rows:
         ratio = rows["mi_single_general"]["median_ms"] / rows["mi_single_fast"]["median_ms"]
         rows["general_over_fast"] = {"ratio": ratio}
         print(f"general path / fast path: {ratio:.1f}x")
     if args.json is not None:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps({"machine": machine, "results": rows}, indent=2))
     return 0

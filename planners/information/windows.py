@@ -35,7 +35,7 @@ __all__ = ["WindowSide", "full_grid_pair_entropies", "pose_windows", "windowed_p
 
 _WINDOW_GEMM_CELLS = 24 * 24  # windowed pair histograms up to this size: matrix products
 _WINDOW_SCATTER_ELEMENTS = 1 << 20  # stencil entries per chunk of the windowed scatter histogram
-_FFT_CHUNK_ELEMENTS = 1 << 18  # stencil entries (N 9 per pair) handled per full-grid chunk
+_FFT_CHUNK_ELEMENTS = 1 << 21  # stencil entries (N 9 per pair) handled per full-grid chunk
 
 
 def pose_windows(
@@ -250,17 +250,13 @@ def full_grid_pair_entropies(
     n_a, n_b = predictions_a.shape[0], predictions_b.shape[0]
     n = weights.shape[0]
     result = np.empty((n_a, n_b))
-    index_a, weight_a = kernel.assign(predictions_a)
-    index_b, weight_b = kernel.assign(predictions_b)
+    assignment_a = kernel.assign(predictions_a)
+    assignment_b = kernel.assign(predictions_b)
     chunk = max(1, _FFT_CHUNK_ELEMENTS // (n_b * max(n * 9, kernel.length**2)))
     for start in range(0, n_a, chunk):
         stop = min(start + chunk, n_a)
-        histograms = kernel.joint_histograms(
-            [
-                (index_a[start:stop, None], weight_a[start:stop, None]),
-                (index_b[None], weight_b[None]),
-            ],
-            weights,
-        )
-        result[start:stop] = kernel.smoothed_entropy(histograms).reshape(stop - start, n_b)
+        part = (assignment_a[0][start:stop], assignment_a[1][start:stop])
+        histograms = kernel.pair_histograms(part, assignment_b, weights)
+        flat = histograms.reshape((-1,) + histograms.shape[2:])
+        result[start:stop] = kernel.smoothed_entropy(flat).reshape(stop - start, n_b)
     return result
