@@ -54,6 +54,7 @@ each record to the store as soon as its trial finishes.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib
 import math
@@ -70,7 +71,7 @@ from typing import Any
 import numpy as np
 
 from infoseek.experiments.policies import PLANNER_NAMES, make_policy
-from infoseek.experiments.store import ResultsStore, trial_key
+from infoseek.experiments.store import ResultsStore, read_records, trial_key
 
 #: Fields of a trial record that measure time and so differ between otherwise identical runs.
 TIMING_FIELDS: frozenset[str] = frozenset({"plan_time", "wall_time"})
@@ -436,10 +437,34 @@ def _process_context() -> multiprocessing.context.BaseContext:
     return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
 
 
+#: Thread-count variables of the BLAS/OpenMP libraries NumPy and SciPy may use.
+_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+@contextlib.contextmanager
+def single_threaded_workers() -> Iterator[None]:
+    """Worker processes started inside this block use one BLAS thread each (unless the user
+    set the variables): with one trial per core, multithreaded matrix products in every worker
+    would oversubscribe the cores."""
+    saved = {name: os.environ.get(name) for name in _THREAD_VARIABLES}
+    for name in _THREAD_VARIABLES:
+        os.environ.setdefault(name, "1")
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+
+
 def _processes(
     specs: Sequence[TrialSpec], workers: int
 ) -> Iterator[tuple[TrialSpec, dict[str, Any]]]:
-    executor = ProcessPoolExecutor(max_workers=workers, mp_context=_process_context())
+    with single_threaded_workers():
+        executor = ProcessPoolExecutor(max_workers=workers, mp_context=_process_context())
+        executor.submit(int).result()  # start the workers while the variables are set
     try:
         pending: dict[Future[dict[str, Any]], TrialSpec] = {
             executor.submit(run_trial, spec): spec for spec in specs
@@ -593,8 +618,8 @@ def run_bench(
                 bar.update(1)
         finally:
             bar.close()
-        wanted = {spec.key for spec in specs}
-        records = [record for record in store.records() if record["key"] in wanted]
+    wanted = {spec.key for spec in specs}  # read back in stored form (after compaction)
+    records = [record for record in read_records(out) if record["key"] in wanted]
     return BenchResult(records=records, ran=ran, skipped=skipped)
 
 

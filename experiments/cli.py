@@ -319,7 +319,7 @@ def _group(text: str) -> tuple[str, int]:
 
 def run_verify_command(args: argparse.Namespace) -> int:
     """``infoseek verify``: rerun stored trials; exit status 1 if any record is not reproduced."""
-    from infoseek.experiments.verify import verify_store
+    from infoseek.experiments.verify import ATOL, RTOL, verify_store
 
     backend, workers = _execution(args)
     groups = None if args.group is None else [_group(text) for text in args.group]
@@ -332,10 +332,14 @@ def run_verify_command(args: argparse.Namespace) -> int:
         address=args.address,
         progress=False if args.no_progress else None,
     )
-    for key, fields in result.differing.items():
-        print(f"{key}: differs in {', '.join(fields)}")
+    for key, comparison in result.differing.items():
+        step = "" if comparison.first_step is None else f" from step {comparison.first_step}"
+        print(f"{key}: diverged{step}; differs in {', '.join(comparison.fields)}")
+    exact = result.checked - len(result.differing) - result.within_tolerance
     print(
-        f"{result.checked} stored trial(s) rerun, "
+        f"{result.checked} stored trial(s) rerun: {exact} reproduced exactly, "
+        f"{result.within_tolerance} equal within tolerance (largest difference "
+        f"{result.largest_noise:.1e}; rtol {RTOL:g}, atol {ATOL:g}), "
         f"{len(result.differing)} not reproduced by the installed code"
     )
     return 1 if result.differing else 0

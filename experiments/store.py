@@ -1,6 +1,6 @@
 """Append-only results store of the Monte Carlo benchmark (``infoseek bench``).
 
-A store is a directory holding two files:
+A store is a directory holding:
 
 ``manifest.json``
     One JSON object, written once (atomically: temporary file + rename) when the store is
@@ -9,7 +9,7 @@ A store is a directory holding two files:
 
         {
           "format": "infoseek-bench-store",
-          "format_version": 1,
+          "format_version": 2,
           "created": "2006-12-13T12:00:00+00:00",      # informational, never compared
           "config": {
             "env": "bearings_v0",                       # environment id (or "module:callable")
@@ -27,23 +27,35 @@ A store is a directory holding two files:
     configuration: they are part of each trial's key, so new planners or agent counts can be
     added to an existing run.
 
+``parts/part-NNNNN.parquet``
+    The stored trials, compact: Apache Parquet (zstd) tables, one row per trial, written once
+    and never modified. Per-step series are stored in single precision (``float32``, about 7
+    significant digits: far below any difference a claim or figure resolves; ``infoseek
+    verify`` compares within a stated tolerance), identifiers, seeds and the true target in
+    full precision.
+
 ``trials.jsonl``
-    JSON Lines, one object per finished trial, appended in completion order. Each line is
-    written with a single ``write`` followed by ``flush`` and ``os.fsync``, so a finished
-    trial survives a crash. A record carries at least ``key`` (a string, unique in the store,
-    ``"<planner>/agents=<n>/trial=<k>"``), ``planner``, ``n_agents`` and ``trial``; the
-    benchmark adds the per-step metrics (see :mod:`infoseek.experiments.bench`). Non-finite
-    floats are stored as ``null`` (strict JSON).
+    The journal of a run in progress: JSON Lines, one object per finished trial, appended in
+    completion order. Each line is written with a single ``write`` followed by ``flush`` and
+    ``os.fsync``, so a finished trial survives a crash. A record carries at least ``key`` (a
+    string, unique in the store, ``"<planner>/agents=<n>/trial=<k>"``), ``planner``,
+    ``n_agents`` and ``trial``; the benchmark adds the per-step metrics (see
+    :mod:`infoseek.experiments.bench`). Non-finite floats are stored as ``null`` (strict
+    JSON). When the writer closes (normally, on an exception or on Ctrl-C) or a writer opens a
+    store with a non-empty journal, the journal's trials are written to a new part (temporary
+    file, ``fsync``, rename) and then the journal is emptied; a crash between the two leaves
+    trials in both places, which readers count once (a key's first occurrence wins, parts
+    before the journal).
 
     A process killed in the middle of a ``write`` leaves a *torn* last line (no trailing
     newline, or not valid JSON). Readers ignore it; a writer opening the store truncates the
     file back to the end of the last complete line before appending. A malformed line that is
     *not* the last one means the file was damaged by something else: reading fails with
-    :class:`StoreCorruptError` rather than silently dropping data. If a key occurs more than
-    once (only possible through outside edits), the first occurrence wins.
+    :class:`StoreCorruptError` rather than silently dropping data.
 
 A writer holds an exclusive ``fcntl`` lock on ``trials.jsonl`` while the store is open, so two
 runs cannot append to the same directory at once (the second fails with a clear message).
+Stores of format version 1 (journal only) are read as they are.
 """
 
 from __future__ import annotations
@@ -58,9 +70,14 @@ from pathlib import Path
 from typing import Any
 
 FORMAT = "infoseek-bench-store"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+#: Format versions this infoseek reads.
+READABLE_VERSIONS = (1, 2)
 MANIFEST_NAME = "manifest.json"
 TRIALS_NAME = "trials.jsonl"
+PARTS_NAME = "parts"
+#: List-valued record fields kept in double precision (all other float lists: float32).
+FULL_PRECISION_FIELDS = frozenset({"truth"})
 
 
 class StoreError(ValueError):
@@ -176,19 +193,107 @@ def read_manifest(directory: str | os.PathLike[str]) -> dict[str, Any]:
         raise StoreConfigError(f"{path}: unreadable manifest ({error})") from None
     if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
         raise StoreConfigError(f"{path}: not an infoseek results manifest")
-    if manifest.get("format_version") != FORMAT_VERSION:
+    if manifest.get("format_version") not in READABLE_VERSIONS:
         raise StoreConfigError(
             f"{path}: store format version {manifest.get('format_version')!r}, this infoseek "
-            f"reads version {FORMAT_VERSION}"
+            f"reads versions {list(READABLE_VERSIONS)}"
         )
     return manifest
 
 
-def read_records(directory: str | os.PathLike[str]) -> list[dict[str, Any]]:
-    """Every complete trial record of the store in ``directory`` (a torn last line ignored)."""
-    read_manifest(directory)
-    records, _ = _scan(Path(directory) / TRIALS_NAME)
+def _part_paths(directory: Path) -> list[Path]:
+    parts = directory / PARTS_NAME
+    return sorted(parts.glob("part-*.parquet")) if parts.is_dir() else []
+
+
+def _read_parts(directory: Path) -> list[dict[str, Any]]:
+    import pyarrow.parquet as pq
+
+    records: list[dict[str, Any]] = []
+    for path in _part_paths(directory):
+        try:
+            records.extend(pq.read_table(path).to_pylist())
+        except Exception as error:  # pyarrow raises several types for damaged files
+            raise StoreCorruptError(f"{path}: unreadable part ({error})") from None
     return records
+
+
+def _merge(*sources: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Records of every source, the first occurrence of each key kept."""
+    merged: list[dict[str, Any]] = []
+    seen: set[str] = set()
+    for records in sources:
+        for record in records:
+            if record["key"] not in seen:
+                seen.add(record["key"])
+                merged.append(record)
+    return merged
+
+
+def read_records(directory: str | os.PathLike[str]) -> list[dict[str, Any]]:
+    """Every complete trial record of the store in ``directory``: the parts, then the
+    journal (a torn last line ignored), each key once."""
+    read_manifest(directory)
+    journal, _ = _scan(Path(directory) / TRIALS_NAME)
+    return _merge(_read_parts(Path(directory)), journal)
+
+
+def encode_part(records: list[dict[str, Any]]) -> Any:
+    """A ``pyarrow.Table`` of ``records``: float lists in float32 except
+    :data:`FULL_PRECISION_FIELDS`."""
+    import pyarrow as pa
+
+    table = pa.Table.from_pylist([_jsonable(dict(record)) for record in records])
+    fields = []
+    for field in table.schema:
+        kind = field.type
+        if (
+            pa.types.is_list(kind)
+            and pa.types.is_floating(kind.value_type)
+            and field.name not in FULL_PRECISION_FIELDS
+        ):
+            kind = pa.list_(pa.float32())
+        fields.append(pa.field(field.name, kind))
+    return table.cast(pa.schema(fields))
+
+
+def as_stored(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """``records`` as a part stores them (float32 series): what :func:`read_records` returns
+    for them after compaction."""
+    return encode_part(records).to_pylist() if records else []
+
+
+def part_keys(directory: str | os.PathLike[str]) -> list[str]:
+    """The key of every row of every part, in order, duplicates included (for checks)."""
+    import pyarrow.parquet as pq
+
+    return [
+        key
+        for path in _part_paths(Path(directory))
+        for key in pq.read_table(path, columns=["key"]).column("key").to_pylist()
+    ]
+
+
+def _write_part(directory: Path, records: list[dict[str, Any]]) -> Path:
+    """Write ``records`` as the next part, durably (temporary file, fsync, rename)."""
+    import pyarrow.parquet as pq
+
+    parts = directory / PARTS_NAME
+    parts.mkdir(exist_ok=True)
+    existing = _part_paths(directory)
+    number = 1 + max((int(p.stem.split("-")[1]) for p in existing), default=0)
+    path = parts / f"part-{number:05d}.parquet"
+    tmp = parts / f".{path.name}.tmp"
+    pq.write_table(encode_part(records), tmp, compression="zstd")
+    with open(tmp, "rb") as handle:
+        os.fsync(handle.fileno())
+    os.replace(tmp, path)
+    directory_fd = os.open(parts, os.O_RDONLY)
+    try:
+        os.fsync(directory_fd)
+    finally:
+        os.close(directory_fd)
+    return path
 
 
 def _config_differences(stored: Mapping[str, Any], wanted: Mapping[str, Any]) -> list[str]:
@@ -259,10 +364,14 @@ class ResultsStore:
                 self._file.truncate(good_end)
                 self._file.flush()
                 os.fsync(self._file.fileno())
+            stored = {record["key"] for record in _read_parts(self.directory)}
         except BaseException:
             self._file.close()
             raise
-        self._keys: set[str] = {record["key"] for record in records}
+        self._keys: set[str] = stored | {record["key"] for record in records}
+        self._stored = stored  # keys already in parts
+        if records:  # a journal left by a killed writer: keep its trials in a part
+            self._compact()
 
     def _lock(self) -> None:
         try:
@@ -311,14 +420,29 @@ class ResultsStore:
         return True
 
     def records(self) -> list[dict[str, Any]]:
-        """Every stored record (first occurrence per key, file order)."""
-        records, _ = _scan(self.directory / TRIALS_NAME)
-        return records
+        """Every stored record (parts, then the journal; first occurrence per key)."""
+        journal, _ = _scan(self.directory / TRIALS_NAME)
+        return _merge(_read_parts(self.directory), journal)
+
+    def _compact(self) -> None:
+        """Move the journal's trials into a new part, then empty the journal."""
+        journal, _ = _scan(self.directory / TRIALS_NAME)
+        fresh = [record for record in journal if record["key"] not in self._stored]
+        if fresh:
+            _write_part(self.directory, fresh)
+            self._stored.update(record["key"] for record in fresh)
+        if journal:
+            self._file.truncate(0)
+            self._file.flush()
+            os.fsync(self._file.fileno())
 
     def close(self) -> None:
-        """Release the lock and close the file (idempotent)."""
+        """Compact the journal into a part, release the lock and close (idempotent)."""
         if not self._file.closed:
-            self._file.close()
+            try:
+                self._compact()
+            finally:
+                self._file.close()
 
     def __enter__(self) -> ResultsStore:
         return self

@@ -3,11 +3,19 @@
 A trial is a pure function of its configuration (the store manifest's environment, environment
 keyword arguments and episode length), its planner label, its number of agents and its two
 seeds (see :mod:`infoseek.experiments.bench`). Rerunning it with the installed code must
-therefore reproduce its stored record exactly, except for the timing fields
-(:data:`TIMING_FIELDS`), which measure the machine rather than the result. A record that differs
-was written by other code (an older version of a planner, say) and should not be mixed with
-records of the installed code: :func:`verify_store` finds such records; the command prints their
-keys and exits with status 1 if there are any.
+therefore reproduce its stored record, except for the timing fields (:data:`TIMING_FIELDS`),
+which measure the machine rather than the result.
+
+The rerun record is brought into stored form (per-step series in float32, as the store keeps
+them) and compared field by field. Numbers count as equal within ``|a - b| <= ATOL + RTOL
+|b|`` (:data:`RTOL` ``= 1e-5``, :data:`ATOL` ``= 1e-6``): floating-point noise (another BLAS
+kernel summing in another order, a value rounded to the other side of a float32 boundary) stays
+orders of magnitude below that, while a trial whose decisions changed differs by far more
+within a few steps. Each trial is reported as *reproduced* (identical), *equal within
+tolerance* (noise) or *diverged*, a diverged one with the first step at which a per-step series
+leaves the tolerance. A diverged record was written by other code (an older version of a
+planner, say) and should not be mixed with records of the installed code; the command prints
+those keys and exits with status 1 if there are any.
 
 Trials run with planner options passed through the Python API
 (:attr:`~infoseek.experiments.bench.BenchPlan.planner_options`) are not described by the store;
@@ -23,10 +31,13 @@ from dataclasses import dataclass
 from typing import Any
 
 from infoseek.experiments.bench import TrialSpec, execute, trial_progress_bar
-from infoseek.experiments.store import encode_record, read_manifest, read_records
+from infoseek.experiments.store import as_stored, encode_record, read_manifest, read_records
 
 #: Record fields that measure the machine, not the trial (left out of the comparison).
 TIMING_FIELDS = frozenset({"wall_time", "plan_time"})
+#: Relative and absolute tolerance of the comparison (module docstring).
+RTOL = 1e-5
+ATOL = 1e-6
 
 
 def stored_trial_spec(config: Mapping[str, Any], record: Mapping[str, Any]) -> TrialSpec:
@@ -48,15 +59,61 @@ def stored_trial_spec(config: Mapping[str, Any], record: Mapping[str, Any]) -> T
     )
 
 
-def differing_fields(stored: Mapping[str, Any], rerun: Mapping[str, Any]) -> list[str]:
-    """Sorted names of the fields (timing fields aside) in which two records differ.
+@dataclass(frozen=True)
+class Comparison:
+    """How a rerun record compares with its stored record.
 
-    Both records are compared in their stored JSON form, so a rerun record compares equal to
-    the record it reproduces (floats round-trip exactly through JSON).
+    Attributes:
+        fields: Fields (timing aside) that differ beyond the tolerance.
+        first_step: First step at which a per-step series differs beyond the tolerance
+            (``None`` if none does).
+        noise: Largest difference found within the tolerance (0.0: identical).
     """
-    rerun = json.loads(encode_record(rerun))
-    fields = (set(stored) | set(rerun)) - TIMING_FIELDS
-    return sorted(f for f in fields if stored.get(f, ...) != rerun.get(f, ...))
+
+    fields: tuple[str, ...]
+    first_step: int | None
+    noise: float
+
+
+def _close(a: Any, b: Any) -> bool:
+    if isinstance(a, bool) or isinstance(b, bool) or a is None or b is None:
+        return a == b
+    if isinstance(a, int | float) and isinstance(b, int | float):
+        return abs(float(a) - float(b)) <= ATOL + RTOL * abs(float(b))
+    return a == b
+
+
+def compare_records(stored: Mapping[str, Any], rerun: Mapping[str, Any]) -> Comparison:
+    """Compare a rerun record (brought into stored form) with the stored one (module doc)."""
+    rerun = as_stored([json.loads(encode_record(rerun))])[0]
+    fields = sorted((set(stored) | set(rerun)) - TIMING_FIELDS)
+    differing: list[str] = []
+    first_step: int | None = None
+    noise = 0.0
+    for field in fields:
+        a, b = rerun.get(field, ...), stored.get(field, ...)
+        if isinstance(a, list) and isinstance(b, list):
+            bad = [t for t, (x, y) in enumerate(zip(a, b, strict=False)) if not _close(x, y)]
+            if len(a) != len(b):
+                bad.append(min(len(a), len(b)))
+            if bad:
+                differing.append(field)
+                first_step = bad[0] if first_step is None else min(first_step, bad[0])
+            noise = max(noise, _noise(a, b))
+        elif not _close(a, b):
+            differing.append(field)
+        else:
+            noise = max(noise, _noise([a], [b]))
+    return Comparison(tuple(differing), first_step, noise)
+
+
+def _noise(a: list[Any], b: list[Any]) -> float:
+    """Largest difference between paired numbers that are equal within the tolerance."""
+    worst = 0.0
+    for x, y in zip(a, b, strict=False):
+        if isinstance(x, int | float) and isinstance(y, int | float) and _close(x, y):
+            worst = max(worst, abs(float(x) - float(y)))
+    return worst
 
 
 @dataclass
@@ -65,11 +122,15 @@ class VerifyResult:
 
     Attributes:
         checked: Number of records rerun and compared.
-        differing: Key of every record that was not reproduced -> the fields that differ.
+        differing: Key of every diverged record -> its :class:`Comparison`.
+        within_tolerance: Number of records equal only within the tolerance (noise).
+        largest_noise: Largest difference among the records within tolerance.
     """
 
     checked: int
-    differing: dict[str, list[str]]
+    differing: dict[str, Comparison]
+    within_tolerance: int = 0
+    largest_noise: float = 0.0
 
 
 def verify_store(
@@ -119,14 +180,23 @@ def verify_store(
         and (trials is None or int(r["trial"]) < trials)
     }
     specs = [stored_trial_spec(config, record) for record in selected.values()]
-    differing: dict[str, list[str]] = {}
+    differing: dict[str, Comparison] = {}
+    noisy, largest = 0, 0.0
     bar = trial_progress_bar(len(specs), "verify", progress)
     try:
         for spec, rerun in execute(specs, backend=backend, workers=workers, address=address):
-            fields = differing_fields(selected[spec.key], rerun)
-            if fields:
-                differing[spec.key] = fields
+            comparison = compare_records(selected[spec.key], rerun)
+            if comparison.fields:
+                differing[spec.key] = comparison
+            elif comparison.noise > 0:
+                noisy += 1
+                largest = max(largest, comparison.noise)
             bar.update(1)
     finally:
         bar.close()
-    return VerifyResult(checked=len(specs), differing=dict(sorted(differing.items())))
+    return VerifyResult(
+        checked=len(specs),
+        differing=dict(sorted(differing.items())),
+        within_tolerance=noisy,
+        largest_noise=largest,
+    )

@@ -198,30 +198,60 @@ CONFIG = {"env": "x", "env_kwargs": {}, "steps": 3, "seed": 0, "version": "t"}
 
 
 def test_store_append_is_durable_unique_and_torn_tail_is_dropped(tmp_path: Path) -> None:
+    trials = tmp_path / "s" / store.TRIALS_NAME
     with ResultsStore(tmp_path / "s", CONFIG) as s:
         assert s.append({"key": "a", "v": 1.5})
         assert not s.append({"key": "a", "v": 2.0})  # never stored twice
         assert s.append({"key": "b", "v": float("nan")})
-    trials = tmp_path / "s" / store.TRIALS_NAME
+        # durable at once: the journal holds both before the writer closes
+        assert [json.loads(line)["key"] for line in trials.read_text().splitlines()] == ["a", "b"]
+    assert trials.read_bytes() == b""  # closing moved them into a part
+    assert store.part_keys(tmp_path / "s") == ["a", "b"]
     with open(trials, "ab") as f:
         f.write(b'{"key": "c", "v"')  # a killed writer's torn line
     assert [r["key"] for r in read_records(tmp_path / "s")] == ["a", "b"]
     assert read_records(tmp_path / "s")[1]["v"] is None  # strict JSON: NaN -> null
     with ResultsStore(tmp_path / "s", CONFIG) as s:
         assert s.keys == {"a", "b"}
-        assert trials.read_bytes().endswith(b"}\n")  # truncated back to the last full line
+        assert trials.read_bytes() == b""  # truncated back to the last full line
         s.append({"key": "c", "v": 3})
-    lines = trials.read_text().splitlines()
-    assert [json.loads(line)["key"] for line in lines] == ["a", "b", "c"]
+    assert store.part_keys(tmp_path / "s") == ["a", "b", "c"]
+    assert [r["v"] for r in read_records(tmp_path / "s")] == [1.5, None, 3]
+
+
+def test_store_keeps_a_killed_writers_journal_and_counts_every_trial_once(
+    tmp_path: Path,
+) -> None:
+    """A writer killed before compacting leaves its trials in the journal; one killed between
+    writing the part and emptying the journal leaves them in both: each is read once, and the
+    next writer moves them into a part exactly once."""
+    with ResultsStore(tmp_path / "s", CONFIG) as s:
+        s.append({"key": "a", "v": [0.1, 0.2]})
+    journal = tmp_path / "s" / store.TRIALS_NAME
+    journal.write_text(
+        json.dumps({"key": "a", "v": [0.1, 0.2]})
+        + "\n"
+        + json.dumps({"key": "b", "v": [1.0]})
+        + "\n"
+    )
+    assert [r["key"] for r in read_records(tmp_path / "s")] == ["a", "b"]
+    with ResultsStore(tmp_path / "s", CONFIG) as s:
+        assert s.keys == {"a", "b"}
+        assert journal.read_bytes() == b""  # compacted on open
+    assert store.part_keys(tmp_path / "s") == ["a", "b"]
+    # series are single precision in a part, the rest as written
+    (a, b) = read_records(tmp_path / "s")
+    assert a["v"] == [float(np.float32(0.1)), float(np.float32(0.2))] and b["v"] == [1.0]
 
 
 def test_store_refuses_other_configurations_and_foreign_dirs(tmp_path: Path) -> None:
     with ResultsStore(tmp_path / "s", CONFIG) as s:
         s.append({"key": "a"})
-    before = {p.name: p.read_bytes() for p in (tmp_path / "s").iterdir()}
+    files = [p for p in (tmp_path / "s").rglob("*") if p.is_file()]
+    before = {p: p.read_bytes() for p in files}
     with pytest.raises(StoreConfigError, match="steps: stored 3, requested 4"):
         ResultsStore(tmp_path / "s", {**CONFIG, "steps": 4})
-    assert {p.name: p.read_bytes() for p in (tmp_path / "s").iterdir()} == before
+    assert {p: p.read_bytes() for p in (tmp_path / "s").rglob("*") if p.is_file()} == before
     (tmp_path / "foreign").mkdir()
     (tmp_path / "foreign" / "notes.txt").write_text("mine")
     with pytest.raises(StoreConfigError, match="not an infoseek results directory"):
@@ -253,13 +283,12 @@ def test_bench_resumes_from_a_partial_store_with_a_torn_line(
         f.write(b'{"key": "random/agents=3/trial=2", "mass_age')
     result = run_bench(tiny_plan(), out, backend="serial", progress=False)
     assert (result.ran, result.skipped) == (4, 5)
-    lines = (out / store.TRIALS_NAME).read_text().splitlines()
-    keys = [json.loads(line)["key"] for line in lines]
+    keys = store.part_keys(out)
     assert sorted(keys) == sorted(set(keys)) and len(keys) == 9  # each trial exactly once
     assert deterministic(read_records(out)) == reference
     again = run_bench(tiny_plan(), out, backend="serial", progress=False)
     assert (again.ran, again.skipped) == (0, 9)
-    assert len((out / store.TRIALS_NAME).read_text().splitlines()) == 9
+    assert len(store.part_keys(out)) == 9
 
 
 def test_bench_adds_groups_to_an_existing_run(tmp_path: Path) -> None:
@@ -388,7 +417,7 @@ def test_killed_cli_run_resumes_to_the_uninterrupted_result(tmp_path: Path) -> N
         [*args, "--out", str(fresh_dir)], env=environ, capture_output=True, text=True
     )
     assert fresh.returncode == 0, fresh.stderr
-    lines = trials.read_text().splitlines()
-    assert len(lines) == 8 == len({json.loads(line)["key"] for line in lines})
+    keys = store.part_keys(killed_dir)
+    assert len(keys) == 8 == len(set(keys))
     assert deterministic(read_records(killed_dir)) == deterministic(read_records(fresh_dir))
     shutil.rmtree(tmp_path)

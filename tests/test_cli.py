@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -12,13 +13,13 @@ from PIL import Image
 from infoseek.experiments.claims import format_p_value, mass_bands
 from infoseek.experiments.cli import main
 from infoseek.experiments.plot import fig1_panels, mass_curves
-from infoseek.experiments.store import MANIFEST_NAME, TRIALS_NAME
+from infoseek.experiments.store import MANIFEST_NAME, PARTS_NAME, TRIALS_NAME, read_records
 
 BENCH_TINY = ["--agents", "2", "--steps", "3", "--particles", "100", "--workers", "1"]
 
 
 def _snapshot(directory: Path) -> dict[str, bytes]:
-    return {p.name: p.read_bytes() for p in sorted(directory.iterdir())}
+    return {str(p): p.read_bytes() for p in sorted(directory.rglob("*")) if p.is_file()}
 
 
 @pytest.fixture(scope="module")
@@ -52,7 +53,8 @@ def test_bench_smoke_stores_and_summarises(
     assert manifest["config"]["env"] == "bearings_v0"
     assert manifest["config"]["steps"] == 3
     assert manifest["config"]["env_kwargs"] == {"n_particles": 100}
-    records = [json.loads(line) for line in (bench_dir / TRIALS_NAME).read_text().splitlines()]
+    records = read_records(bench_dir)
+    assert (bench_dir / TRIALS_NAME).read_bytes() == b""  # compacted into a part
     assert sorted(r["key"] for r in records) == [
         "random/agents=2/trial=0",
         "random/agents=2/trial=1",
@@ -105,9 +107,7 @@ def test_mass_curves_pad_short_trials() -> None:
 def test_reproduce_fig1_smoke(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     args = ["reproduce", "fig1", "--trials", "1", "--steps", "2", "--particles", "100"]
     assert main([*args, "--workers", "1", "--out", str(tmp_path)]) == 0
-    records = [
-        json.loads(line) for line in (tmp_path / "store" / TRIALS_NAME).read_text().splitlines()
-    ]
+    records = read_records(tmp_path / "store")
     assert sorted((r["planner"], r["n_agents"]) for r in records) == [
         ("pairwise", 2),
         ("pairwise", 3),
@@ -260,7 +260,7 @@ def test_bench_accepts_a_planner_factory_path(tmp_path: Path) -> None:
     argv += ["--particles", "50", "--out", str(out), "--no-progress"]
     factory = "infoseek.planners:SingleNodePlanner.from_env"
     assert main([*argv, "--planner", factory]) == 0
-    (record,) = [json.loads(line) for line in (out / TRIALS_NAME).read_text().splitlines()]
+    (record,) = read_records(out)
     assert record["planner"] == factory and len(record["plan_time"]) == 2
     assert main([*argv, "--planner", "infoseek.planners:NoSuchPlanner.from_env"]) == 2
 
@@ -293,25 +293,31 @@ def test_verify_reruns_stored_trials_and_names_the_ones_not_reproduced(
     assert main([*args, "--out", str(out)]) == 0
     capsys.readouterr()
     assert main(["verify", str(out), "--workers", "1"]) == 0
-    assert "3 stored trial(s) rerun, 0 not reproduced" in capsys.readouterr().out
+    assert "3 stored trial(s) rerun: 3 reproduced exactly" in capsys.readouterr().out
 
-    # Tamper with a result field of trial 1 and a timing field of trial 2: only the result counts.
-    lines = (out / TRIALS_NAME).read_text().splitlines()
-    records = [json.loads(line) for line in lines]
+    # Tamper with a result of trial 1 (a real divergence at the last step), a timing field of
+    # trial 2 (ignored) and a result of trial 0 by 1e-7 (floating-point noise).
+    records = read_records(out)
+    last = len(records[1]["mass_agent0"]) - 1
     records[1]["mass_agent0"][-1] = records[1]["mass_agent0"][-1] / 2 + 0.01
     records[2]["plan_time"] = [t + 1.0 for t in records[2]["plan_time"]]
+    records[0]["error_agent0"][1] += 1e-7
+    shutil.rmtree(out / PARTS_NAME)
     (out / TRIALS_NAME).write_text("".join(json.dumps(r) + "\n" for r in records))
     before = _snapshot(out)
     assert main(["verify", str(out), "--workers", "1"]) == 1
     report = capsys.readouterr().out
-    assert f"{records[1]['key']}: differs in mass_agent0" in report
+    assert f"{records[1]['key']}: diverged from step {last}; differs in mass_agent0" in report
     assert records[2]["key"] not in report and records[0]["key"] not in report
-    assert "3 stored trial(s) rerun, 1 not reproduced" in report
+    assert "3 stored trial(s) rerun: 1 reproduced exactly, 1 equal within tolerance" in report
+    assert "1 not reproduced" in report
     assert _snapshot(out) == before  # verify never writes to the store
 
     # --trials / --group select what is rerun.
     assert main(["verify", str(out), "--trials", "1", "--group", "single/2", "--workers", "1"]) == 0
-    assert "1 stored trial(s) rerun, 0 not reproduced" in capsys.readouterr().out
+    assert (
+        "1 stored trial(s) rerun: 0 reproduced exactly, 1 equal within" in capsys.readouterr().out
+    )
     for bad, message in (
         (["--group", "single"], "--group must look like PLANNER/AGENTS"),
         (["--group", "pairwise/4"], "no stored trials of group(s) pairwise/4"),
