@@ -69,6 +69,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from infoseek.experiments.policies import PLANNER_NAMES, make_policy
 from infoseek.experiments.store import ResultsStore, read_records, trial_key
@@ -303,7 +304,18 @@ class _Recorder:
 
 
 def run_trial(spec: TrialSpec) -> dict[str, Any]:
-    """Run one trial; returns its record (see the module docstring for the fields)."""
+    """Run one trial; returns its record (see the module docstring for the fields).
+
+    The trial runs with one BLAS thread (``threadpoolctl``), whatever the machine: OpenBLAS
+    sums a matrix product in another order with another number of threads, and the planners'
+    decisions depend on such products, so a stored trial reproduces on any machine only if
+    the thread count is fixed.
+    """
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _run_trial(spec)
+
+
+def _run_trial(spec: TrialSpec) -> dict[str, Any]:
     started = time.perf_counter()
     env = make_env(spec.env, n_agents=spec.n_agents, max_cycles=spec.steps, **spec.env_kwargs)
     try:
@@ -493,10 +505,19 @@ def _ray(
         ) from None
     started_here = False
     if not ray.is_initialized():
+        from infoseek.experiments.numerics import PINNED
+
+        env_vars = {key: os.environ[key] for key in PINNED if key in os.environ}
+        runtime_env = {"env_vars": env_vars} if env_vars else None
         if address:
-            ray.init(address=address, log_to_driver=False)
+            ray.init(address=address, log_to_driver=False, runtime_env=runtime_env)
         else:
-            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+            ray.init(
+                num_cpus=workers,
+                include_dashboard=False,
+                log_to_driver=False,
+                runtime_env=runtime_env,
+            )
         started_here = True
     pending: dict[Any, TrialSpec] = {}
     try:

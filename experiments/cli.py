@@ -332,6 +332,14 @@ def run_verify_command(args: argparse.Namespace) -> int:
         address=args.address,
         progress=False if args.no_progress else None,
     )
+    from infoseek.experiments.numerics import describe
+    from infoseek.experiments.store import read_manifest
+
+    stored = read_manifest(args.directory).get("numerics")
+    current = describe()
+    print(f"numerical environment: {_numerics_line(current)}")
+    if stored is not None and _numerics_line(stored) != _numerics_line(current):
+        print(f"  (the store was written under: {_numerics_line(stored)})")
     for key, comparison in result.differing.items():
         step = "" if comparison.first_step is None else f" from step {comparison.first_step}"
         print(f"{key}: diverged{step}; differs in {', '.join(comparison.fields)}")
@@ -343,6 +351,12 @@ def run_verify_command(args: argparse.Namespace) -> int:
         f"{len(result.differing)} not reproduced by the installed code"
     )
     return 1 if result.differing else 0
+
+
+def _numerics_line(numerics: dict[str, Any]) -> str:
+    blas = ", ".join(f"{b.get('library')} {b.get('kernel')}" for b in numerics.get("blas", []))
+    simd = "/".join(numerics.get("numpy_simd", [])) or "baseline"
+    return f"NumPy {numerics.get('numpy')} SIMD {simd}; BLAS {blas or 'none loaded'}"
 
 
 def build_parser() -> argparse.ArgumentParser:

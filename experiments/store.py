@@ -11,6 +11,9 @@ A store is a directory holding:
           "format": "infoseek-bench-store",
           "format_version": 2,
           "created": "2006-12-13T12:00:00+00:00",      # informational, never compared
+          "numerics": {...},                            # the numerical environment that wrote
+                                                        # it (informational; see
+                                                        # infoseek.experiments.numerics)
           "config": {
             "env": "bearings_v0",                       # environment id (or "module:callable")
             "env_kwargs": {"n_particles": 2000},        # keyword arguments of every env, minus
@@ -347,11 +350,14 @@ class ResultsStore:
                     f"(no {MANIFEST_NAME}); refusing to write into it"
                 )
             self.directory.mkdir(parents=True, exist_ok=True)
+            from infoseek.experiments.numerics import describe
+
             manifest = {
                 "format": FORMAT,
                 "format_version": FORMAT_VERSION,
                 "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
                 "config": self.config,
+                "numerics": describe(),
             }
             tmp = manifest_path.with_suffix(".json.tmp")
             tmp.write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n")

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -325,3 +328,33 @@ def test_verify_reruns_stored_trials_and_names_the_ones_not_reproduced(
     ):
         assert main(["verify", str(out), *bad, "--workers", "1"]) == 2
         assert message in capsys.readouterr().err
+
+
+def _cli(args: list[str], **environ: str) -> subprocess.CompletedProcess[str]:
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE",)}
+    env.update(environ)
+    return subprocess.run(
+        [sys.executable, "-m", "infoseek.experiments", *args],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+
+
+def test_stored_trials_verify_under_another_blas_kernel(tmp_path: Path) -> None:
+    """A trial written with the machine's own BLAS kernel choice verifies with another kernel
+    forced through OPENBLAS_CORETYPE: trial commands pin the numerical environment
+    (infoseek.experiments.numerics) before NumPy loads."""
+    out = tmp_path / "run"
+    args = ["--planner", "pairwise", "--agents", "3", "--trials", "1", "--steps", "8"]
+    args += ["--particles", "400", "--workers", "1", "--no-progress"]
+    written = _cli(["bench", *args, "--out", str(out)])
+    assert written.returncode == 0, written.stderr
+    manifest = json.loads((out / MANIFEST_NAME).read_text())
+    assert manifest["numerics"]["pinned"] is True
+    assert {b["kernel"] for b in manifest["numerics"]["blas"]} == {"Haswell"}
+    for kernel in ("SkylakeX", "Sandybridge"):
+        checked = _cli(["verify", str(out), "--no-progress"], OPENBLAS_CORETYPE=kernel)
+        assert checked.returncode == 0, checked.stdout + checked.stderr
+        assert "1 reproduced exactly" in checked.stdout

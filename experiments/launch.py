@@ -1,0 +1,28 @@
+"""The ``infoseek`` console entry point: pins the numerical environment, then runs the CLI.
+
+Commands that run trials (``bench``, ``reproduce``, ``verify``) need the pinned numerical
+environment of :mod:`infoseek.experiments.numerics` before NumPy is loaded; this module sets it
+and only then imports :mod:`infoseek.experiments.cli`.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from infoseek.experiments.numerics import pin
+
+#: Commands whose trials must reproduce on any machine.
+TRIAL_COMMANDS = frozenset({"bench", "reproduce", "verify"})
+
+
+def main() -> int:
+    """Pin (for trial commands), then ``infoseek.experiments.cli.main``."""
+    if len(sys.argv) > 1 and sys.argv[1] in TRIAL_COMMANDS:
+        pin()
+    from infoseek.experiments.cli import main as cli_main
+
+    return cli_main()
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,80 @@
+"""The numerical environment that stored trials run in, the same on every x86-64 machine.
+
+The planners' decisions are sensitive to the last bits of their utilities: the two best
+candidate controls of a vehicle are often within ``1e-5`` nats of each other, so a difference
+of one unit in the last place of a matrix product can change a decision and, a few steps later,
+a whole trajectory. Two things make such bits machine-dependent:
+
+* OpenBLAS picks its matrix kernels at load time from the CPU (``Haswell`` on AVX2 machines,
+  ``SkylakeX`` on AVX-512 ones) and sums in a kernel-specific order;
+* NumPy dispatches its transcendental and reduction loops at load time to the widest SIMD
+  extension present (``X86_V3`` = AVX2, ``X86_V4`` and later = AVX-512).
+
+Trials are therefore run (``infoseek bench``, ``reproduce``, ``verify``, and their worker
+processes) in a pinned environment: :data:`PINNED` selects the AVX2 code paths of both, which
+every x86-64 CPU with AVX2 runs, and :func:`pin` sets it before NumPy is imported. Each trial
+also runs with one BLAS thread (:func:`infoseek.experiments.bench.run_trial`): the summation
+order of a threaded product depends on the thread count. :func:`describe` reports what is in
+effect; the bench store records it in its manifest and ``infoseek verify`` prints it.
+Setting ``INFOSEEK_NATIVE_NUMERICS=1`` leaves the environment as it is (faster on AVX-512
+machines; results then reproduce only on machines with the same kernels).
+
+This module imports nothing heavy, so the command line can pin before NumPy loads.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from typing import Any
+
+__all__ = ["PINNED", "describe", "pin"]
+
+#: Environment variables of the pinned numerical environment.
+PINNED: dict[str, str] = {
+    "OPENBLAS_CORETYPE": "Haswell",
+    "NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR",
+}
+
+
+def pin() -> bool:
+    """Put :data:`PINNED` into ``os.environ`` (for this process, if NumPy is not loaded yet,
+    and for every process started from it).
+
+    Returns:
+        Whether the pin is in effect in this process (``False`` if NumPy was already loaded,
+        if ``INFOSEEK_NATIVE_NUMERICS=1``, or off x86-64 Linux).
+    """
+    if os.environ.get("INFOSEEK_NATIVE_NUMERICS") == "1":
+        return False
+    if sys.platform != "linux" or os.uname().machine not in ("x86_64", "AMD64"):
+        return False
+    os.environ.update(PINNED)
+    return "numpy" not in sys.modules
+
+
+def describe() -> dict[str, Any]:
+    """NumPy's version and SIMD targets in use, and the BLAS libraries with their kernels."""
+    import numpy as np
+    from threadpoolctl import threadpool_info
+
+    try:
+        from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+    except ImportError:  # pragma: no cover - older NumPy
+        from numpy.core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+
+    return {
+        "numpy": np.__version__,
+        "numpy_simd": [name for name in __cpu_dispatch__ if __cpu_features__.get(name)],
+        "blas": [
+            {
+                "library": info.get("internal_api"),
+                "version": info.get("version"),
+                "kernel": info.get("architecture"),
+                "prefix": info.get("prefix"),
+            }
+            for info in threadpool_info()
+            if info.get("user_api") == "blas"
+        ],
+        "pinned": all(os.environ.get(key) == value for key, value in PINNED.items()),
+    }
