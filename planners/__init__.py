@@ -10,14 +10,8 @@ coordination of the local programs (eq. 27-30) lives in :mod:`infoseek.planners.
 the MI estimators in :mod:`infoseek.planners.information` and :mod:`infoseek.planners.utilities`.
 """
 
-from infoseek.planners.base import (
-    EnvModel,
-    InformationPlanner,
-    PlanDiagnostics,
-    Planner,
-    PlannerConfig,
-    Policy,
-)
+from infoseek.planners.base import InformationPlanner, PlanDiagnostics, Planner
+from infoseek.planners.config import PlannerConfig
 from infoseek.planners.coordination import (
     CoordinationResult,
     PenaltySettings,
@@ -26,6 +20,7 @@ from infoseek.planners.coordination import (
 )
 from infoseek.planners.joint import JointPlanner
 from infoseek.planners.lawnmower import LawnmowerConfig, LawnmowerPolicy
+from infoseek.planners.model import EnvModel, Policy
 from infoseek.planners.pairwise_node import PairwiseNodePlanner
 from infoseek.planners.random_policy import RandomPolicy, RandomPolicyConfig
 from infoseek.planners.single_node import SingleNodePlanner

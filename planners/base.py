@@ -1,4 +1,4 @@
-"""Shared plumbing of the scripted policies: the planner interface and its helpers.
+"""The planner interface and the shared machinery of the information planners.
 
 Every policy in :mod:`infoseek.planners` is used the same way inside the ordinary PettingZoo
 parallel loop::
@@ -9,18 +9,11 @@ parallel loop::
         actions = planner.act(observations, infos)
         observations, rewards, terminations, truncations, infos = env.step(actions)
 
-``from_env`` copies the *a-priori* models (sensor, vehicle, target space, time step, separation,
-action type and discrete control table) from ``env.unwrapped`` into an :class:`EnvModel`; the
-planner never keeps the environment and never reads the true target. ``act`` reads, for every
-agent present in ``observations``, its own belief ``infos[agent]["belief"]`` and the vehicle
-states ``infos[agent]["vehicle_states"]`` (rows in ``possible_agents`` order), and returns one
-action per agent inside ``env.action_space(agent)``.
-
-Helpers shared by the planners: option parsing into frozen config dataclasses (unknown options
-raise ``ValueError`` listing the valid ones), candidate-control grids, and the mapping from
-controls to actions (continuous: the control itself as ``float32``, clipped into the Box;
-discrete: the index of the nearest row of ``discrete_controls`` in control units scaled by the
-control range).
+``from_env`` copies the a-priori models into an :class:`~infoseek.planners.model.EnvModel`
+and parses the options (:mod:`infoseek.planners.config`). ``act`` reads, for every agent
+present in ``observations``, its own belief ``infos[agent]["belief"]`` and the vehicle states
+``infos[agent]["vehicle_states"]`` (rows in ``possible_agents`` order), and returns one action
+per agent inside ``env.action_space(agent)`` (:mod:`infoseek.planners.controls`).
 """
 
 from __future__ import annotations
@@ -28,250 +21,22 @@ from __future__ import annotations
 import dataclasses
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, ClassVar, Protocol, Self, runtime_checkable
+from typing import Any, ClassVar, Self
 
 import numpy as np
 from numpy.typing import NDArray
 
-from infoseek.envs.sensors.base import Sensor
-from infoseek.envs.targets import TargetSpace
-from infoseek.envs.vehicles.base import Vehicle
-from infoseek.planners.coordination import (
-    CoordinationResult,
-    PenaltySettings,
-    UtilityFunction,
-    coordinate,
-)
-from infoseek.planners.information import METHODS, BeliefMI, MIEstimator, make_estimator
+from infoseek.planners.config import PlannerConfig, parse_options
+from infoseek.planners.controls import candidate_grid, controls_to_actions, read_states
+from infoseek.planners.coordination import CoordinationResult, UtilityFunction, coordinate
+from infoseek.planners.information import BeliefMI
+from infoseek.planners.model import EnvModel, FloatArray
 from infoseek.planners.refinement import GridRefiner
 from infoseek.planners.utilities import subsample_particles
 
-FloatArray = NDArray[np.float64]
-
-__all__ = [
-    "EnvModel",
-    "InformationPlanner",
-    "PlanDiagnostics",
-    "Planner",
-    "PlannerConfig",
-    "Policy",
-    "candidate_grid",
-    "controls_to_actions",
-    "nearest_discrete_action",
-    "parse_options",
-    "read_states",
-]
-
-
-@runtime_checkable
-class Policy(Protocol):
-    """Anything that maps a parallel-env step's observations and infos to actions."""
-
-    def act(self, observations: Mapping[str, Any], infos: Mapping[str, Any]) -> dict[str, Any]:
-        """Return ``{agent: action}`` for every agent in ``observations``."""
-        ...
-
-
-@dataclass(frozen=True)
-class EnvModel:
-    """The a-priori models a planner may know about an environment (no truth).
-
-    Attributes:
-        sensor: The measurement model the vehicles' beliefs apply (the environment's
-            ``filter_sensor``: for ``beacon_v0`` the receiver with its noise floor), so the
-            planners score candidates with exactly the likelihood the filters use.
-        vehicle: The vehicle model shared by all vehicles.
-        space: The target state space (search domain).
-        dt: Time step.
-        min_separation: The separation of eq. 2.
-        action_type: ``"continuous"`` or ``"discrete"``.
-        discrete_controls: ``(K, control_dim)`` control of each discrete action (None if
-            continuous).
-        possible_agents: Agent names; row ``i`` of ``vehicle_states`` belongs to agent ``i``.
-        action_spaces: Agent name -> its gymnasium action space.
-    """
-
-    sensor: Sensor
-    vehicle: Vehicle
-    space: TargetSpace
-    dt: float
-    min_separation: float
-    action_type: str
-    discrete_controls: FloatArray | None
-    possible_agents: tuple[str, ...]
-    action_spaces: Mapping[str, Any]
-
-    @classmethod
-    def from_env(cls, env: Any) -> EnvModel:
-        """Copy the a-priori models from ``env.unwrapped`` (never touches the truth)."""
-        base = getattr(env, "unwrapped", env)
-        missing = [
-            name
-            for name in (
-                "sensor",
-                "vehicle",
-                "space",
-                "dt",
-                "min_separation",
-                "action_type",
-                "discrete_controls",
-                "possible_agents",
-            )
-            if not hasattr(base, name)
-        ]
-        if missing:
-            raise TypeError(
-                f"env: expected an infoseek InformationSeekingEnv, missing attributes {missing}"
-            )
-        agents = tuple(base.possible_agents)
-        discrete = base.discrete_controls
-        if base.action_type not in ("continuous", "discrete"):
-            raise ValueError(f"env.action_type must be continuous|discrete, got {base.action_type}")
-        if base.action_type == "discrete" and discrete is None:
-            raise ValueError("env: discrete action type without discrete_controls")
-        return cls(
-            sensor=getattr(base, "filter_sensor", base.sensor),
-            vehicle=base.vehicle,
-            space=base.space,
-            dt=float(base.dt),
-            min_separation=float(base.min_separation),
-            action_type=str(base.action_type),
-            discrete_controls=None
-            if discrete is None
-            else np.array(discrete, dtype=np.float64, copy=True),
-            possible_agents=agents,
-            action_spaces={agent: base.action_space(agent) for agent in agents},
-        )
-
-    @property
-    def n_agents(self) -> int:
-        """Number of possible agents."""
-        return len(self.possible_agents)
-
-    @property
-    def control_low(self) -> FloatArray:
-        """``(control_dim,)`` lower control bounds."""
-        return np.asarray(self.vehicle.control_low, dtype=np.float64)
-
-    @property
-    def control_high(self) -> FloatArray:
-        """``(control_dim,)`` upper control bounds."""
-        return np.asarray(self.vehicle.control_high, dtype=np.float64)
-
-    def agent_index(self, agent: str) -> int:
-        """Row of ``agent`` in ``vehicle_states``; ValueError for an unknown name."""
-        try:
-            return self.possible_agents.index(agent)
-        except ValueError:
-            raise ValueError(
-                f"unknown agent {agent!r}; possible agents are {list(self.possible_agents)}"
-            ) from None
-
-
-def parse_options(config_class: type, options: Mapping[str, Any]) -> Any:
-    """Build a frozen config dataclass from keyword options.
-
-    Raises:
-        ValueError: An option that is not a field of ``config_class`` (the message lists the
-            valid ones).
-    """
-    valid = [f.name for f in dataclasses.fields(config_class)]
-    unknown = sorted(set(options) - set(valid))
-    if unknown:
-        raise ValueError(
-            f"unknown option(s) {unknown} for {config_class.__name__}; valid options: {valid}"
-        )
-    return config_class(**options)
-
-
-def candidate_grid(model: EnvModel, grid_size: int | None = None) -> FloatArray:
-    """Candidate controls searched by the local programs.
-
-    Args:
-        model: The environment model.
-        grid_size: Evenly spaced values per control axis (continuous actions only). ``None``:
-            9 for a one-dimensional control (airplane turn rate), 5 per axis otherwise (5 x 5
-            quadrotor accelerations). Both bounds are always included.
-
-    Returns:
-        ``(C, control_dim)`` candidates; exactly ``discrete_controls`` for discrete actions.
-    """
-    if model.action_type == "discrete":
-        assert model.discrete_controls is not None
-        return model.discrete_controls.copy()
-    low, high = model.control_low, model.control_high
-    dim = low.shape[0]
-    k = (9 if dim == 1 else 5) if grid_size is None else int(grid_size)
-    if k < 2:
-        raise ValueError(f"grid_size must be >= 2, got {grid_size}")
-    axes = [np.linspace(lo, hi, k) for lo, hi in zip(low, high, strict=True)]
-    mesh = np.meshgrid(*axes, indexing="ij")
-    return np.stack([m.ravel() for m in mesh], axis=-1)
-
-
-def nearest_discrete_action(model: EnvModel, controls: FloatArray) -> NDArray[np.int64]:
-    """Index of the discrete control nearest to each ``(..., control_dim)`` control.
-
-    Distances are measured in control units divided by the control range of each axis.
-    """
-    if model.discrete_controls is None:
-        raise ValueError("nearest_discrete_action needs a discrete-action environment")
-    scale = np.where(
-        model.control_high > model.control_low, model.control_high - model.control_low, 1.0
-    )
-    controls = np.asarray(controls, dtype=np.float64)
-    d = np.linalg.norm(
-        (controls[..., None, :] - model.discrete_controls) / scale, axis=-1
-    )  # (..., K)
-    return np.argmin(d, axis=-1).astype(np.int64)
-
-
-def controls_to_actions(
-    model: EnvModel, agents: Sequence[str], controls: FloatArray
-) -> dict[str, Any]:
-    """Turn ``(len(agents), control_dim)`` controls into actions of each agent's action space.
-
-    Continuous: the control as a ``float32`` array clipped into the Box. Discrete: the index of
-    the nearest discrete control (an ``int``).
-    """
-    controls = np.asarray(controls, dtype=np.float64).reshape(len(agents), -1)
-    if not np.all(np.isfinite(controls)):
-        raise ValueError(f"controls must be finite, got {controls}")
-    actions: dict[str, Any] = {}
-    if model.action_type == "discrete":
-        indices = nearest_discrete_action(model, controls)
-        for agent, k in zip(agents, indices, strict=True):
-            actions[agent] = int(k)
-        return actions
-    for agent, u in zip(agents, controls, strict=True):
-        space = model.action_spaces[agent]
-        actions[agent] = np.clip(u.astype(np.float32), space.low, space.high).astype(np.float32)
-    return actions
-
-
-def read_states(model: EnvModel, infos: Mapping[str, Any], agents: Sequence[str]) -> FloatArray:
-    """``(n_possible_agents, state_dim)`` vehicle states from ``infos[agent]["vehicle_states"]``.
-
-    Raises:
-        ValueError: No agents, an agent without ``infos`` / ``"vehicle_states"``, a wrong shape,
-            or non-finite states.
-    """
-    if not agents:
-        raise ValueError("observations: no agents to act for")
-    agent = agents[0]
-    if agent not in infos or "vehicle_states" not in infos[agent]:
-        raise ValueError(f"infos[{agent!r}] must contain 'vehicle_states'")
-    states = np.asarray(infos[agent]["vehicle_states"], dtype=np.float64)
-    expected = (model.n_agents, model.vehicle.state_dim)
-    if states.shape != expected:
-        raise ValueError(
-            f"infos[{agent!r}]['vehicle_states'] must have shape {expected}, got {states.shape}"
-        )
-    if not np.all(np.isfinite(states)):
-        raise ValueError(f"infos[{agent!r}]['vehicle_states'] contains non-finite values")
-    return states
+__all__ = ["FloatArray", "InformationPlanner", "PlanDiagnostics", "Planner"]
 
 
 class Planner(ABC):
@@ -329,142 +94,6 @@ class Planner(ABC):
     def reset(self) -> None:
         """Forget per-episode state (the default planners keep none besides diagnostics)."""
         self.last_plan = None
-
-
-# --------------------------------------------------------------------------- information planners
-@dataclass(frozen=True)
-class PlannerConfig:
-    """Options of the mutual-information planners (every field has a documented default).
-
-    Attributes:
-        n_planning: Planning particles per vehicle (2000): each vehicle's own belief is
-            reduced to at most this many equally weighted particles by systematic resampling
-            with the planner's generator.
-        seed: Seed of the planner's own generator (None: OS entropy).
-        mi_method: Mutual-information estimator (a name in
-            :data:`infoseek.planners.information.ESTIMATORS`, or ``"auto"``: ``"fft"`` for
-            additive-noise sensors, ``"fourier"`` for the beacon). ``"monte_carlo"`` draws from
-            the planner's generator.
-        quadrature_points: Observation grid size ``n_points`` of the estimator (None: the
-            estimator's default).
-        grid_size: Candidate controls per control axis for continuous actions (None: 9 for a
-            1-D control, 5 per axis for 2-D); discrete actions always use the env's table.
-        alpha: Penalty update ``beta := alpha beta`` (0.5).
-        beta: Initial penalty parameter (1.0).
-        gamma: Penalty exponent of eq. 27 (2.0).
-        max_iterations: Maximum coordination sweeps (20).
-        tolerance: Plan-change tolerance in control units (1e-6).
-        feasibility_tolerance: Accepted planned-separation shortfall at convergence (0.05 units).
-        schedule: ``"gauss-seidel"`` (default, sequential) or ``"jacobi"`` (synchronous).
-        agreement_weight: Jacobi agreement/proximal weight (0.1; see
-            :mod:`infoseek.planners.coordination`).
-        reciprocal: Jacobi reciprocal anticipation of partner moves (True).
-        separation_margin: Planning separation is ``min_separation + separation_margin``
-            (0.25 units), so that the inexact penalty's residual shortfall stays clear of the
-            environment's constraint.
-        refine: Continuous actions only: polish each vehicle's grid choice inside its grid cell
-            on a cubic spline of the utility through the candidate grid (values the
-            coordination already computed; no further MI), see
-            :mod:`infoseek.planners.refinement` (True).
-        refine_points: Search points per control axis in the cell (odd, >= 3; None: 33 for a
-            one-dimensional control, 17 per axis for two).
-        safety_horizon: Steps ``H`` over which the separation constraints (eq. 28) are imposed,
-            each candidate's track predicted with its control held (3). ``H = 1`` is the
-            paper's one-step constraint; fixed-speed airplanes closing at up to twice their
-            speed cannot always turn away within one step, so the default looks 3 steps ahead.
-            The utility is always the one-step MI.
-        max_joint_agents: :class:`JointPlanner` only: largest team size (3; the exact joint MI
-            is evaluated on an observation grid, which the MI module supports for <= 3
-            observations).
-        max_exhaustive: :class:`JointPlanner` only: largest number of joint candidate
-            combinations searched exhaustively (81: e.g. 9 turn rates for 2 airplanes); above
-            it, coordinate ascent.
-    """
-
-    n_planning: int = 2000
-    seed: int | None = None
-    mi_method: str = "auto"
-    quadrature_points: int | None = None
-    grid_size: int | None = None
-    alpha: float = 0.5
-    beta: float = 1.0
-    gamma: float = 2.0
-    max_iterations: int = 20
-    tolerance: float = 1e-6
-    feasibility_tolerance: float = 0.05
-    schedule: str = "gauss-seidel"
-    agreement_weight: float = 0.1
-    reciprocal: bool = True
-    separation_margin: float = 0.25
-    refine: bool = True
-    refine_points: int | None = None
-    safety_horizon: int = 3
-    max_joint_agents: int = 3
-    max_exhaustive: int = 81
-
-    def __post_init__(self) -> None:
-        for name in (
-            "n_planning",
-            "safety_horizon",
-            "max_joint_agents",
-            "max_exhaustive",
-        ):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
-        if self.quadrature_points is not None and self.quadrature_points < 2:
-            raise ValueError(
-                f"quadrature_points must be None or >= 2, got {self.quadrature_points}"
-            )
-        if not isinstance(self.mi_method, str) or self.mi_method not in METHODS:
-            raise ValueError(f"mi_method must be one of {list(METHODS)}, got {self.mi_method!r}")
-        if self.refine_points is not None and (
-            isinstance(self.refine_points, bool)
-            or not isinstance(self.refine_points, int | np.integer)
-            or self.refine_points < 3
-        ):
-            raise ValueError(
-                f"refine_points must be None or an integer >= 3, got {self.refine_points!r}"
-            )
-        if self.grid_size is not None and self.grid_size < 2:
-            raise ValueError(f"grid_size must be None or >= 2, got {self.grid_size}")
-        if not (np.isfinite(self.separation_margin) and self.separation_margin >= 0):
-            raise ValueError(f"separation_margin must be >= 0, got {self.separation_margin}")
-        if not isinstance(self.refine, bool):
-            raise TypeError(f"refine must be a bool, got {self.refine!r}")
-        # Validate the penalty parameters once (raises ValueError naming the field).
-        self.penalty_settings(1.0)
-
-    def penalty_settings(self, min_separation: float) -> PenaltySettings:
-        """The coordination settings for an environment's ``min_separation``."""
-        return PenaltySettings(
-            min_separation=min_separation + self.separation_margin,
-            alpha=self.alpha,
-            beta=self.beta,
-            gamma=self.gamma,
-            max_iterations=self.max_iterations,
-            tolerance=self.tolerance,
-            feasibility_tolerance=self.feasibility_tolerance,
-            schedule=self.schedule,  # type: ignore[arg-type]
-            agreement_weight=self.agreement_weight,
-            reciprocal=self.reciprocal,
-        )
-
-    def make_estimator(
-        self, sensor: Sensor, n_observations: int, rng: np.random.Generator
-    ) -> MIEstimator:
-        """The planner's MI estimator for ``sensor`` (``rng`` feeds ``"monte_carlo"``).
-
-        Raises:
-            TypeError: ``mi_method`` needs a sensor method the sensor lacks.
-        """
-        return make_estimator(
-            self.mi_method,
-            sensor,
-            n_observations=n_observations,
-            n_points=self.quadrature_points,
-            rng=rng,
-        )
 
 
 @dataclass(frozen=True)

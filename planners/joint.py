@@ -28,16 +28,12 @@ from typing import Any
 
 import numpy as np
 
-from infoseek.planners.base import (
-    EnvModel,
-    FloatArray,
-    InformationPlanner,
-    PlanDiagnostics,
-    PlannerConfig,
-    controls_to_actions,
-)
+from infoseek.planners.base import InformationPlanner, PlanDiagnostics
+from infoseek.planners.config import PlannerConfig
+from infoseek.planners.controls import controls_to_actions
 from infoseek.planners.coordination import max_violation, separation_penalty
 from infoseek.planners.information import MAX_GRID_OBSERVATIONS
+from infoseek.planners.model import EnvModel, FloatArray
 
 __all__ = ["JointPlanner"]
 

@@ -33,13 +33,9 @@ from typing import Any
 
 import numpy as np
 
-from infoseek.planners.base import (
-    EnvModel,
-    FloatArray,
-    Planner,
-    candidate_grid,
-    controls_to_actions,
-)
+from infoseek.planners.base import Planner
+from infoseek.planners.controls import candidate_grid, controls_to_actions
+from infoseek.planners.model import EnvModel, FloatArray
 
 __all__ = ["LawnmowerConfig", "LawnmowerPolicy", "lawnmower_waypoints"]
 

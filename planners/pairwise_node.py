@@ -41,7 +41,7 @@ class PairwiseNodePlanner(InformationPlanner):
     """Decentralised planner with the pairwise-node utility (eq. 22).
 
     Build with ``PairwiseNodePlanner.from_env(env, **options)``; options are the fields of
-    :class:`~infoseek.planners.base.PlannerConfig`.
+    :class:`~infoseek.planners.config.PlannerConfig`.
     """
 
     min_agents = 2

@@ -15,7 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from infoseek.planners.base import EnvModel, FloatArray, Planner
+from infoseek.planners.base import Planner
+from infoseek.planners.model import EnvModel, FloatArray
 
 __all__ = ["RandomPolicy", "RandomPolicyConfig"]
 

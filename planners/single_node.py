@@ -21,7 +21,7 @@ class SingleNodePlanner(InformationPlanner):
     """Decentralised planner with the single-node utility (eq. 20).
 
     Build with ``SingleNodePlanner.from_env(env, **options)``; options are the fields of
-    :class:`~infoseek.planners.base.PlannerConfig`.
+    :class:`~infoseek.planners.config.PlannerConfig`.
     """
 
     def _utility_function(
