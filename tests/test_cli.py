@@ -358,3 +358,16 @@ def test_stored_trials_verify_under_another_blas_kernel(tmp_path: Path) -> None:
         checked = _cli(["verify", str(out), "--no-progress"], OPENBLAS_CORETYPE=kernel)
         assert checked.returncode == 0, checked.stdout + checked.stderr
         assert "1 reproduced exactly" in checked.stdout
+
+
+FIG1_STORE = Path(__file__).resolve().parents[1] / "experiments" / "results" / "fig1" / "store"
+
+
+def test_committed_fig1_trials_reproduce_on_this_machine() -> None:
+    """The stored Fig. 1 results are the installed code's: the first trial of two groups is
+    rerun from its seeds and must reproduce (in the pinned numerical environment)."""
+    assert (FIG1_STORE / MANIFEST_NAME).exists()
+    groups = ["--group", "single/4", "--group", "pairwise/3"]
+    checked = _cli(["verify", str(FIG1_STORE), "--trials", "1", *groups, "--no-progress"])
+    assert checked.returncode == 0, checked.stdout + checked.stderr
+    assert "2 stored trial(s) rerun: 2 reproduced exactly" in checked.stdout

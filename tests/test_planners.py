@@ -153,9 +153,9 @@ def _closed_loop(env_id: str, seeds, options: dict) -> list[float]:
     return masses
 
 
-# Closed loop, bearings: 20 seeded episodes split in 4 chunks (parallel under -n 2).
-# Budget: 300 planning particles, 32-point MI grid, no refinement (documented in the report).
-BEARINGS_CLOSED_LOOP = {"n_planning": 300, "quadrature_points": 32, "refine": False}
+# Closed loop, bearings: 20 seeded episodes split in 4 chunks (parallel under -n 2), with the
+# planner's defaults (2000 planning particles, the fft estimator, refinement).
+BEARINGS_CLOSED_LOOP: dict = {}
 
 
 @pytest.mark.parametrize("chunk", range(4))
@@ -166,17 +166,10 @@ def test_closed_loop_bearings(chunk: int) -> None:
 
 
 # Closed loop, beacon: 6 seeded episodes in 2 chunks (parallel under -n 2), with beacon_v0's
-# default filter noise floor (filter_max_snr=5, see infoseek.envs.search_env). Budget: 150
-# planning particles, 32-point quadrature MI, 3 x 3 control grid, no refinement. With the exact
-# likelihood in the filters (filter_max_snr=None) only ~2 of 20 episodes localise: near the
-# beacon one reading's likelihood is far narrower than the particle spacing (BEACON-2 report).
-BEACON_CLOSED_LOOP = {
-    "n_planning": 150,
-    "mi_method": "quadrature",
-    "quadrature_points": 32,
-    "grid_size": 3,
-    "refine": False,
-}
+# defaults (filter noise floor filter_max_snr=5, see infoseek.envs.search_env) and the
+# planner's (2000 planning particles, the fourier estimator on the filters' receiver, 5 x 5
+# control grid, refinement).
+BEACON_CLOSED_LOOP: dict = {}
 
 
 @pytest.mark.parametrize("chunk", range(2))

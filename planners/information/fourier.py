@@ -30,8 +30,8 @@ h(s_n)`` from the table. One and two observations share the grid (one resolution
 single MIs skip the channels and sum the spectra, ``sum_n w_n X_n``, directly.
 
 **Cost** per pose ``O(N K)`` for the spectra plus ``O(N Q log Q)`` for the channels; per pair one
-``(Q x N) (N x Q)`` matrix product. With ``beacon_v0``'s floor (``rho <= 5``): ``K = 20``,
-``Q = 48``. Shapes above ``s_max`` (an unbounded sensor beyond ``max_shape``) use the kernel of
+``(Q x N) (N x Q)`` matrix product. With ``beacon_v0``'s floor (``rho <= 5``): ``K = 17``,
+``Q = 36``. Shapes above ``s_max`` (an unbounded sensor beyond ``max_shape``) use the kernel of
 ``s_max``: that is the MI of a receiver with its SNR capped at ``s_max``, a lower bound of the
 exact MI (data processing), and exact wherever no particle exceeds it.
 """
