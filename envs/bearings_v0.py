@@ -78,7 +78,8 @@ infoseek.envs.bearings_v0.parallel_env(
   components, by registry name or instance (changing them makes a different environment;
   `name` ("bearings_v0") is the name reported in `metadata`).
 * `n_agents` (4): number of airplanes, >= 1.
-* `n_particles` (2000): particles in each agent's belief, >= 1.
+* `n_particles` (2000): particles in each agent's belief, >= 100 (fewer cannot represent the
+  uniform prior, and the posterior-mass metrics of a tiny belief are meaningless).
 * `max_cycles` (60): steps before truncation.
 * `dt` (1.0 s): time step (> 0).
 * `sensor_kwargs` ({"sigma": 0.1}): `BearingSensor` arguments; `sigma` is the bearing noise

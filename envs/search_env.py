@@ -100,6 +100,10 @@ FloatArray = NDArray[np.float64]
 ObsArray = NDArray[np.float32]
 
 ACTION_TYPES = ("continuous", "discrete")
+#: Fewest particles per belief: fewer cannot represent the uniform prior (a 40 x 40 domain
+#: sampled by 100 particles already leaves ~4 units between neighbours), and the posterior-mass
+#: and localisation metrics of a belief of a handful of particles are meaningless.
+MIN_PARTICLES = 100
 RENDER_MODES = (None, "rgb_array", "human")
 ANGLE_STATE_NAMES = ("heading", "psi", "yaw")
 INFO_KEYS = (
@@ -216,7 +220,7 @@ class InformationSeekingEnv(ParallelEnv):
             instance; the same model is used by every agent's belief ``predict``.
         target_motion_kwargs: Constructor arguments when ``target_motion`` is a name.
         n_agents: Number of vehicles ``A >= 1``.
-        n_particles: Particles per agent belief ``N >= 1``.
+        n_particles: Particles per agent belief, ``N >= MIN_PARTICLES`` (100).
         max_cycles: Steps before truncation (>= 1). May be reassigned between episodes.
         dt: Time step in seconds (> 0).
         min_separation: :math:`\\bar d` of eq. 2 in distance units (>= 0).
@@ -318,7 +322,7 @@ class InformationSeekingEnv(ParallelEnv):
 
         # ---- scalars
         self.n_agents = _check_int(n_agents, "n_agents", 1)
-        self.n_particles = _check_int(n_particles, "n_particles", 1)
+        self.n_particles = _check_int(n_particles, "n_particles", MIN_PARTICLES)
         self.max_cycles = _check_int(max_cycles, "max_cycles", 1)
         self.dt = _check_float(dt, "dt", low=0.0, low_open=True)
         self.min_separation = _check_float(min_separation, "min_separation", low=0.0)
@@ -557,6 +561,16 @@ class InformationSeekingEnv(ParallelEnv):
         return layout, low, high
 
     # ----------------------------------------------------------------------------- spaces
+    @property
+    def observation_spaces(self) -> dict[str, gymnasium.spaces.Box]:
+        """Agent -> observation space, for every possible agent (PettingZoo convention)."""
+        return dict(self._observation_spaces)
+
+    @property
+    def action_spaces(self) -> dict[str, gymnasium.spaces.Space]:
+        """Agent -> action space, for every possible agent (PettingZoo convention)."""
+        return dict(self._action_spaces)
+
     def observation_space(self, agent: str) -> gymnasium.spaces.Box:
         """The (shared-shape) flat float32 observation space of ``agent``."""
         return self._observation_spaces[self._agent_index(agent, "observation_space")]

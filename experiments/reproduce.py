@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from infoseek.envs.search_env import MIN_PARTICLES
 from infoseek.experiments.bench import BenchPlan, default_steps, derive_seed, make_env
 from infoseek.experiments.policies import make_policy
 
@@ -74,12 +75,12 @@ def fig2_scenario(seed: int = 0) -> tuple[int, np.ndarray]:
     drawn beacon position is at least :data:`FIG2_MIN_START_DISTANCE` from every starting
     vehicle is taken (so the search has somewhere to go, as in the paper's figure), with the
     orientation replaced by the paper's ``pi/4``. The drawn target depends only on the seed,
-    so the search uses one-particle environments.
+    so the search uses environments with the fewest particles allowed.
 
     Raises:
         ValueError: No candidate within the first 20000.
     """
-    probe = make_env(FIG2_ENV, n_agents=FIG2_AGENTS, n_particles=1)
+    probe = make_env(FIG2_ENV, n_agents=FIG2_AGENTS, n_particles=MIN_PARTICLES)
     try:
         for index in range(_FIG2_MAX_CANDIDATES):
             candidate = derive_seed("fig2", seed, index)

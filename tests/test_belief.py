@@ -687,7 +687,7 @@ def test_beacon_filter_noise_floor_is_an_inflated_noise_likelihood() -> None:
         inflated = BeaconSensor(moment=1000.0, noise_std=max(1.0, rho[k] / 5.0))
         expected = inflated.log_likelihood(z, pose, particles[k : k + 1])[0, 0]
         assert floored[k] == pytest.approx(expected, rel=1e-9, abs=1e-12)
-    env = infoseek.envs.make("beacon_v0", n_agents=2, n_particles=50)
+    env = infoseek.envs.make("beacon_v0", n_agents=2, n_particles=100)
     assert env.unwrapped.filter_max_snr == 5.0
     with pytest.raises(ValueError, match="filter_max_snr"):
         infoseek.envs.make("bearings_v0", n_agents=2, filter_max_snr=5.0)

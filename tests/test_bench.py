@@ -114,7 +114,7 @@ def test_env_seed_gives_every_fleet_size_the_same_target() -> None:
 
     targets = []
     for n_agents in (2, 4, 10):
-        env = make("bearings_v0", n_agents=n_agents, n_particles=10)
+        env = make("bearings_v0", n_agents=n_agents, n_particles=100)
         env.reset(seed=trial_seeds(7, "bearings_v0", "pairwise", n_agents, 5)[0])
         targets.append(env.unwrapped.true_target())
     np.testing.assert_array_equal(targets[0], targets[1])

@@ -260,7 +260,7 @@ def test_claims_rejects_unpaired_stores(tmp_path: Path, capsys) -> None:
 def test_bench_accepts_a_planner_factory_path(tmp_path: Path) -> None:
     out = tmp_path / "factory"
     argv = ["bench", "--env", "bearings_v0", "--agents", "2", "--trials", "1", "--steps", "2"]
-    argv += ["--particles", "50", "--out", str(out), "--no-progress"]
+    argv += ["--particles", "100", "--out", str(out), "--no-progress"]
     factory = "infoseek.planners:SingleNodePlanner.from_env"
     assert main([*argv, "--planner", factory]) == 0
     (record,) = read_records(out)

@@ -77,3 +77,17 @@ def test_module_entry_points_agree_with_make(env_id: str) -> None:
     made = infoseek.envs.make(env_id, **kwargs)
     assert type(made) is type(par)
     assert made.observation_space("vehicle_1") == par.observation_space("vehicle_1")
+
+
+@pytest.mark.parametrize("env_id", sorted(registry))
+@pytest.mark.parametrize("action_type", ["continuous", "discrete"])
+def test_space_dicts_cover_every_possible_agent(env_id: str, action_type: str) -> None:
+    """``observation_spaces`` / ``action_spaces`` (PettingZoo's dict attributes) exist and
+    agree with the per-agent methods, for every possible agent."""
+    env = infoseek.envs.make(env_id, **_kwargs(3, action_type))
+    assert set(env.observation_spaces) == set(env.possible_agents) == set(env.action_spaces)
+    for agent in env.possible_agents:
+        assert env.observation_spaces[agent] == env.observation_space(agent)
+        assert env.action_spaces[agent] == env.action_space(agent)
+    env.observation_spaces.clear()  # a copy: the env's own spaces are untouched
+    assert env.observation_space("vehicle_0") is not None

@@ -329,7 +329,7 @@ def test_comm_range_and_message_loss_decide_who_receives_what() -> None:
         comm_range=2.5,
         start_spacing=2.0,
         message_loss=0.3,
-        n_particles=50,
+        n_particles=100,
         max_cycles=40,
     )
     env.reset(seed=1)
@@ -511,6 +511,7 @@ def test_bad_actions_raise_naming_the_agent(make_env, actions, error, pattern) -
         ({"n_agents": 0}, ValueError, "n_agents"),
         ({"n_agents": 2.5}, TypeError, "n_agents"),
         ({"n_particles": 0}, ValueError, "n_particles"),
+        ({"n_particles": 99}, ValueError, r"n_particles must be an integer >= 100"),
         ({"max_cycles": 0}, ValueError, "max_cycles"),
         ({"min_separation": -1.0}, ValueError, "min_separation"),
         ({"dt": -1.0}, ValueError, "dt"),
@@ -627,7 +628,7 @@ def test_module_manual_documents_every_configuration_key(env_id: str) -> None:
 
 
 def test_reset_options_place_the_target_and_reject_bad_keys() -> None:
-    env = infoseek.envs.make("beacon_v0", n_agents=2, n_particles=50)
+    env = infoseek.envs.make("beacon_v0", n_agents=2, n_particles=100)
     env.reset(seed=3, options={"target": [30.0, 20.0, np.pi / 4]})
     np.testing.assert_allclose(env.unwrapped.true_target(), [30.0, 20.0, np.pi / 4])
     # The other streams are unchanged: the beliefs are the same as without the option.

@@ -89,12 +89,12 @@ def test_bad_estimator_requests_give_clear_errors():
 
 
 def test_planner_options_are_validated_when_the_planner_is_built():
-    env = infoseek.envs.make("beacon_v0", n_agents=2, n_particles=50)
+    env = infoseek.envs.make("beacon_v0", n_agents=2, n_particles=100)
     with pytest.raises(ValueError, match=r"mi_method must be one of .*'fourier'"):
         SingleNodePlanner.from_env(env, mi_method="fourrier")
     with pytest.raises(TypeError, match="predict"):
         SingleNodePlanner.from_env(env, mi_method="fft")
-    bearings = infoseek.envs.make("bearings_v0", n_agents=2, n_particles=60)
+    bearings = infoseek.envs.make("bearings_v0", n_agents=2, n_particles=100)
     with pytest.raises(ValueError, match="quadrature_points"):
         PairwiseNodePlanner.from_env(bearings, quadrature_points=1)
 
@@ -102,7 +102,7 @@ def test_planner_options_are_validated_when_the_planner_is_built():
 def test_monte_carlo_planner_draws_from_its_own_generator():
     """mi_method='monte_carlo' works in act(): the planner passes its own generator, so two
     planners with the same seed make the same decisions."""
-    env = infoseek.envs.make("bearings_v0", n_agents=2, n_particles=80)
+    env = infoseek.envs.make("bearings_v0", n_agents=2, n_particles=100)
     controls = []
     for _ in range(2):
         observations, infos = env.reset(seed=4)
