@@ -57,6 +57,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import importlib
+import json
 import math
 import multiprocessing
 import os
@@ -151,6 +152,31 @@ def make_env(env: str, **kwargs: Any) -> Any:
     return make(env, **kwargs)
 
 
+def non_default_env_kwargs(env: str, env_kwargs: Mapping[str, Any]) -> dict[str, Any]:
+    """``env_kwargs`` without the keywords whose value is the registered environment's
+    default (all of them kept for a ``"module:callable"`` environment)."""
+    if ":" in env:
+        return dict(env_kwargs)
+    import inspect
+
+    from infoseek.envs import registry
+    from infoseek.envs.search_env import InformationSeekingEnv
+
+    parameters = inspect.signature(InformationSeekingEnv.__init__).parameters
+    defaults = {
+        name: p.default
+        for name, p in parameters.items()
+        if p.default is not inspect.Parameter.empty
+    }
+    defaults.update(registry[env].kwargs)
+    missing = object()
+    return {
+        key: value
+        for key, value in env_kwargs.items()
+        if json.dumps(defaults.get(key, missing), default=repr) != json.dumps(value, default=repr)
+    }
+
+
 def default_steps(env: str, env_kwargs: Mapping[str, Any]) -> int:
     """The environment's own episode length (``max_cycles``) for these keyword arguments."""
     instance = make_env(env, n_agents=1, **env_kwargs)
@@ -199,6 +225,14 @@ def check_policy_path(path: str) -> str:
     resolved = Path(path).expanduser().resolve()
     if not resolved.exists():
         raise ValueError(f"--policy {path!r}: no such file or directory")
+    for module in ("torch", "stable_baselines3"):
+        try:
+            importlib.import_module(module)
+        except ImportError:
+            raise ValueError(
+                f"--policy needs the RL dependencies ({module} is not installed): "
+                "pip install 'infoseek[rl]'"
+            ) from None
     trained_policy_loader()
     return POLICY_PREFIX + str(resolved)
 
@@ -396,14 +430,37 @@ class BenchPlan:
                 )
 
     def config(self) -> dict[str, Any]:
-        """The stored run configuration (the manifest's ``config``)."""
+        """The stored run configuration (the manifest's ``config``): environment keywords
+        equal to the environment's defaults are left out, so ``--particles 2000`` (the default
+        spelled out) is the same configuration as no ``--particles``."""
         return {
             "env": self.env,
-            "env_kwargs": dict(self.env_kwargs),
+            "env_kwargs": non_default_env_kwargs(self.env, self.env_kwargs),
             "steps": self.steps,
             "seed": self.seed,
             "version": _infoseek_version(),
         }
+
+    def validate(self) -> None:
+        """Build every group's environment and policy once, without running anything.
+
+        Raises:
+            ValueError / TypeError: An environment keyword, planner or planner/fleet-size
+                combination that a trial would reject (so nothing is written for a run that
+                would fail).
+        """
+        for n_agents in sorted({n for _, n in self.groups}):
+            env = make_env(self.env, n_agents=n_agents, max_cycles=self.steps, **self.env_kwargs)
+            try:
+                for planner, n in self.groups:
+                    if n != n_agents:
+                        continue
+                    try:
+                        build_policy(planner, env, 0, self.planner_options)
+                    except (ValueError, TypeError) as error:
+                        raise ValueError(f"{planner} with {n_agents} agent(s): {error}") from None
+            finally:
+                env.close()
 
     def specs(self) -> list[TrialSpec]:
         """Every trial of the plan, group by group, in trial order."""
@@ -445,8 +502,9 @@ def _serial(specs: Sequence[TrialSpec]) -> Iterator[tuple[TrialSpec, dict[str, A
 
 
 def _process_context() -> multiprocessing.context.BaseContext:
-    methods = multiprocessing.get_all_start_methods()
-    return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+    """``spawn``: workers are children of this process (so :func:`_die_with_parent` ties
+    them to it) and start from a clean interpreter (the pinned numerical environment)."""
+    return multiprocessing.get_context("spawn")
 
 
 #: Thread-count variables of the BLAS/OpenMP libraries NumPy and SciPy may use.
@@ -471,11 +529,26 @@ def single_threaded_workers() -> Iterator[None]:
                 os.environ[name] = value
 
 
+def _die_with_parent() -> None:
+    """Worker initializer: on Linux, ask the kernel to kill this worker when its parent dies
+    (a killed ``bench`` then leaves no worker processes behind)."""
+    if sys.platform.startswith("linux"):
+        import ctypes
+        import signal
+
+        try:
+            ctypes.CDLL("libc.so.6").prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):  # pragma: no cover - exotic libc
+            pass
+
+
 def _processes(
     specs: Sequence[TrialSpec], workers: int
 ) -> Iterator[tuple[TrialSpec, dict[str, Any]]]:
     with single_threaded_workers():
-        executor = ProcessPoolExecutor(max_workers=workers, mp_context=_process_context())
+        executor = ProcessPoolExecutor(
+            max_workers=workers, mp_context=_process_context(), initializer=_die_with_parent
+        )
         executor.submit(int).result()  # start the workers while the variables are set
     try:
         pending: dict[Future[dict[str, Any]], TrialSpec] = {
@@ -627,6 +700,7 @@ def run_bench(
         TrialFailedError: A trial raised; every trial finished before it is stored.
     """
     specs = plan.specs()
+    plan.validate()  # before the store is created or opened
     with ResultsStore(out, plan.config()) as store:
         missing = [spec for spec in specs if spec.key not in store]
         skipped = len(specs) - len(missing)

@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
+from infoseek.experiments.arguments import check_results_directory
 from infoseek.experiments.bench import format_summary, summarise, time_to_localise
 from infoseek.experiments.plot import mass_curves
 from infoseek.experiments.store import read_manifest, read_records
@@ -157,6 +158,7 @@ def run_claims(args: argparse.Namespace) -> int:
     if args.trials is not None and args.trials < 1:
         raise ValueError(f"--trials must be a positive number of trials, got {args.trials}")
     manifest = read_manifest(args.directory)
+    check_results_directory(args.directory)
     records = read_records(args.directory)
     if args.trials is not None:
         records = [r for r in records if int(r["trial"]) < args.trials]

@@ -34,7 +34,12 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from infoseek.experiments.arguments import add_environment_overrides
+from infoseek.experiments.arguments import (
+    add_environment_overrides,
+    check_results_directory,
+    check_writable_directory,
+    check_writable_file,
+)
 from infoseek.experiments.claims import add_claims_arguments, run_claims
 from infoseek.experiments.demo import add_demo_arguments, run_demo
 from infoseek.experiments.timing import add_timing_arguments, run_timing
@@ -141,6 +146,12 @@ def run_bench_command(args: argparse.Namespace) -> int:
         raise ValueError(f"--steps must be >= 1, got {args.steps}")
     if args.particles is not None and args.particles < 1:
         raise ValueError(f"--particles must be >= 1, got {args.particles}")
+    out = (
+        args.out
+        if args.out is not None
+        else Path("infoseek-out") / f"bench-{args.env}-seed{args.seed}"
+    )
+    check_writable_directory(out)
     backend, workers = _execution(args)
     check_env_id(args.env)
     planners = list(dict.fromkeys(args.planner or ([] if args.policy else ["pairwise"])))
@@ -161,11 +172,6 @@ def run_bench_command(args: argparse.Namespace) -> int:
         seed=args.seed,
         groups=[(planner, n) for planner in planners for n in agents],
         trials=args.trials,
-    )
-    out = (
-        args.out
-        if args.out is not None
-        else Path("infoseek-out") / f"bench-{args.env}-seed{args.seed}"
     )
     return _run_and_summarise(plan, out, backend, workers, args)
 
@@ -227,6 +233,9 @@ def run_plot_command(args: argparse.Namespace) -> int:
     """``infoseek plot DIR``: Fig. 1 (PNG and SVG) from a results store."""
     from infoseek.experiments.plot import plot_fig1_from_store
 
+    check_results_directory(args.directory)
+    stem = args.out if args.out is not None else args.directory / "fig1"
+    check_writable_file(Path(f"{stem}.png"), "--out")
     paths = plot_fig1_from_store(args.directory, args.out)
     for path in paths:
         print(f"wrote {path}")
@@ -263,6 +272,7 @@ def run_reproduce_command(args: argparse.Namespace) -> int:
     if args.particles is not None and args.particles < 1:
         raise ValueError(f"--particles must be >= 1, got {args.particles}")
     out = args.out if args.out is not None else Path("infoseek-out") / args.figure
+    check_writable_directory(out)
     if args.figure == "fig2":
         if args.backend is not None or args.workers is not None or args.address:
             print("reproduce fig2: one episode; --backend/--workers/--address are ignored")
@@ -321,6 +331,7 @@ def run_verify_command(args: argparse.Namespace) -> int:
     """``infoseek verify``: rerun stored trials; exit status 1 if any record is not reproduced."""
     from infoseek.experiments.verify import ATOL, RTOL, verify_store
 
+    check_results_directory(args.directory)
     backend, workers = _execution(args)
     groups = None if args.group is None else [_group(text) for text in args.group]
     result = verify_store(
@@ -434,9 +445,39 @@ def main(argv: Sequence[str] | None = None) -> int:
         return exit_.code if isinstance(exit_.code, int) else 2
     try:
         return int(args.handler(args) or 0)
-    except (ValueError, TypeError) as error:
-        print(f"infoseek {args.command}: error: {error}", file=sys.stderr)
+    except KeyboardInterrupt:
+        print(f"infoseek {args.command}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except ImportError as error:
+        missing = getattr(error, "name", None) or str(error)
+        print(
+            f"infoseek {args.command}: error: {missing} is not installed{_extra_hint(missing)}",
+            file=sys.stderr,
+        )
         return 2
+    except (ValueError, TypeError, OSError) as error:
+        print(f"infoseek {args.command}: error: {_one_line(error)}", file=sys.stderr)
+        return 2
+
+
+#: Top-level module -> the extra of infoseek that installs it.
+_EXTRAS = {
+    "stable_baselines3": "rl",
+    "supersuit": "rl",
+    "torch": "rl",
+    "tensorboard": "rl",
+    "ray": "distributed",
+}
+
+
+def _extra_hint(module: str) -> str:
+    extra = _EXTRAS.get(module.split(".")[0])
+    return f"; install the '{extra}' extra: pip install 'infoseek[{extra}]'" if extra else ""
+
+
+def _one_line(error: BaseException) -> str:
+    text = str(error) if str(error) else type(error).__name__
+    return " ".join(text.split())
 
 
 if __name__ == "__main__":  # pragma: no cover

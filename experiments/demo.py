@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from infoseek.envs import make, registry
+from infoseek.experiments.arguments import check_writable_directory
 from infoseek.experiments.policies import PLANNER_NAMES, make_policy
 
 
@@ -43,6 +44,10 @@ def run_demo(args: argparse.Namespace) -> int:
     """Run the demo episode described by ``args``; returns the exit code."""
     if args.agents < 1:
         raise ValueError(f"--agents must be >= 1, got {args.agents}")
+    if not args.fps > 0:
+        raise ValueError(f"--fps must be > 0, got {args.fps}")
+    out = args.out if args.out is not None else Path("infoseek-out")
+    check_writable_directory(out)
     kwargs = {"n_agents": args.agents, "n_particles": args.particles, "render_mode": "rgb_array"}
     if args.steps is not None:
         if args.steps < 1:
@@ -51,7 +56,6 @@ def run_demo(args: argparse.Namespace) -> int:
     env = make(args.env, **kwargs)
     observations, infos = env.reset(seed=args.seed)
     policy = make_policy(args.planner, env, seed=args.seed)
-    out = args.out if args.out is not None else Path("infoseek-out")
     out.mkdir(parents=True, exist_ok=True)
     stem = f"demo-{args.env}-{args.planner}-{args.agents}agents-seed{args.seed}"
 

@@ -185,6 +185,8 @@ def read_manifest(directory: str | os.PathLike[str]) -> dict[str, Any]:
     Raises:
         StoreConfigError: No store there (no readable manifest).
     """
+    if Path(directory).exists() and not Path(directory).is_dir():
+        raise StoreConfigError(f"{directory}: is a file, expected a results directory")
     path = Path(directory) / MANIFEST_NAME
     try:
         manifest = json.loads(path.read_text())

@@ -35,6 +35,8 @@ from typing import Any
 
 import numpy as np
 
+from infoseek.experiments.arguments import check_writable_file
+
 #: Benchmark name -> target median in ms (None: no target).
 TARGETS: dict[str, float | None] = {
     "mi_single_fast": 5.0,
@@ -273,9 +275,7 @@ def run_timing(args: argparse.Namespace) -> int:
         raise ValueError(f"--repeats must be >= 1, got {args.repeats}")
     selected = list(args.only) if args.only else list(BENCHMARKS)
     if args.json is not None:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        if args.json.exists() and not os.access(args.json, os.W_OK):
-            raise ValueError(f"--json: cannot write {args.json}")
+        check_writable_file(args.json, "--json")
     results = _run(selected, args.repeats)
     machine = machine_description()
     print(
@@ -308,5 +308,6 @@ def run_timing(args: argparse.Namespace) -> int:
         rows["general_over_fast"] = {"ratio": ratio}
         print(f"general path / fast path: {ratio:.1f}x")
     if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps({"machine": machine, "results": rows}, indent=2))
     return 0

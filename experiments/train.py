@@ -27,7 +27,11 @@ import sys
 from pathlib import Path
 
 from infoseek.envs import registry
-from infoseek.experiments.arguments import add_environment_overrides, key_value
+from infoseek.experiments.arguments import (
+    add_environment_overrides,
+    check_writable_directory,
+    key_value,
+)
 
 __all__ = ["add_train_arguments", "run_train"]
 
@@ -118,6 +122,7 @@ def run_train(args: argparse.Namespace) -> int:
             f"{error}"
         ) from None
 
+    check_writable_directory(args.out)
     env_kwargs = dict(args.env_kwarg)
     if args.particles is not None:
         if args.particles < 1:

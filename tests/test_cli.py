@@ -145,7 +145,7 @@ def test_reproduce_fig2_smoke(tmp_path: Path, capsys: pytest.CaptureFixture[str]
         (["bench", "--policy", "no-such-model.zip"], "no such file"),
         (["reproduce", "fig1", "--trials", "0"], "--trials must be >= 1"),
         (["reproduce", "fig3"], "invalid choice"),
-        (["plot", "/nonexistent/infoseek-results"], "not an infoseek results directory"),
+        (["plot", "/nonexistent/infoseek-results"], "no such results directory"),
     ],
 )
 def test_bad_arguments_exit_2_with_a_message(
