@@ -110,6 +110,9 @@ class ScaledObservationExtractor(BaseFeaturesExtractor):
         ValueError: wrong lengths or non-positive/non-finite scales.
     """
 
+    offset: torch.Tensor
+    scale: torch.Tensor
+
     def __init__(
         self,
         observation_space: gymnasium.spaces.Box,
@@ -186,6 +189,10 @@ class EgocentricObservationExtractor(ScaledObservationExtractor):
         ValueError: wrong lengths, non-positive scales, or layout indices outside the
             observation.
     """
+
+    cell_centres: torch.Tensor
+    half_size: torch.Tensor
+    domain_centre: torch.Tensor
 
     def __init__(
         self,

@@ -190,6 +190,7 @@ class TrainedPolicy:
             actions, _ = self.model.predict(stacked, deterministic=True)
         else:
             with torch.random.fork_rng(devices=[]):
+                assert self._torch_state is not None  # seeded in __init__
                 torch.set_rng_state(self._torch_state)
                 actions, _ = self.model.predict(stacked, deterministic=False)
                 self._torch_state = torch.get_rng_state()

@@ -16,7 +16,7 @@ from typing import Any, Generic, TypeVar
 
 __all__ = ["Registry", "UnknownNameError"]
 
-T = TypeVar("T")
+F = TypeVar("F", bound=Callable[..., Any])
 
 
 class UnknownNameError(KeyError, ValueError):
@@ -26,8 +26,8 @@ class UnknownNameError(KeyError, ValueError):
         return str(self.args[0]) if self.args else ""
 
 
-class Registry(Mapping[str, Callable[..., T]], Generic[T]):
-    """Name -> factory of one kind of component.
+class Registry(Mapping[str, F], Generic[F]):
+    """Name -> factory (a class, usually) of one kind of component.
 
     Args:
         kind: What the entries are, for error messages (``"sensor"``, ``"MI estimator"``).
@@ -38,9 +38,9 @@ class Registry(Mapping[str, Callable[..., T]], Generic[T]):
     def __init__(self, kind: str, base: type | None = None) -> None:
         self.kind = kind
         self.base = base
-        self._entries: dict[str, Callable[..., T]] = {}
+        self._entries: dict[str, F] = {}
 
-    def register(self, name: str, factory: Callable[..., T]) -> Callable[..., T]:
+    def register(self, name: str, factory: F) -> F:
         """Add ``factory`` under ``name`` and return it (usable as a class decorator helper).
 
         Raises:
@@ -56,7 +56,7 @@ class Registry(Mapping[str, Callable[..., T]], Generic[T]):
         self._entries[name] = factory
         return factory
 
-    def __getitem__(self, name: str) -> Callable[..., T]:
+    def __getitem__(self, name: str) -> F:
         try:
             return self._entries[name]
         except (KeyError, TypeError):
@@ -73,7 +73,7 @@ class Registry(Mapping[str, Callable[..., T]], Generic[T]):
     def __repr__(self) -> str:
         return f"Registry({self.kind!r}, {sorted(self._entries)})"
 
-    def make(self, spec: str | T, **kwargs: Any) -> T:
+    def make(self, spec: Any, **kwargs: Any) -> Any:
         """Build a component from a registry name, or pass an instance through.
 
         Args:

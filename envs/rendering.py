@@ -169,7 +169,7 @@ class SearchRenderer:
             return None
         canvas = self.figure.canvas
         canvas.draw()
-        return np.asarray(canvas.buffer_rgba())[..., :3].copy()
+        return np.asarray(canvas.buffer_rgba())[..., :3].copy()  # type: ignore[attr-defined]
 
     def close(self) -> None:
         """Close the figure (and its window in ``human`` mode)."""

@@ -347,7 +347,9 @@ class InformationSeekingEnv(ParallelEnv):
                     f"filter_max_snr needs a sensor that offers with_max_snr (e.g. 'beacon'); "
                     f"sensor {self.sensor.name!r} does not: use filter_max_snr=None"
                 )
-            self.filter_sensor = self.sensor.with_max_snr(self.filter_max_snr)
+            self.filter_sensor = self.sensor.with_max_snr(  # type: ignore[attr-defined]
+                self.filter_max_snr
+            )
         self.localization_radius = _check_float(
             localization_radius, "localization_radius", low=0.0, low_open=True
         )
@@ -377,7 +379,7 @@ class InformationSeekingEnv(ParallelEnv):
 
         # ---- agents and start positions
         self.possible_agents = [f"vehicle_{i}" for i in range(self.n_agents)]
-        self.agents = []
+        self.agents: list[str] = []
         self.agent_name_mapping = {agent: i for i, agent in enumerate(self.possible_agents)}
         self.start_positions = _readonly(
             self._build_start_positions(start_center, start_spacing, start_positions)
@@ -400,7 +402,7 @@ class InformationSeekingEnv(ParallelEnv):
             self.discrete_controls: FloatArray | None = _readonly(
                 np.stack([g.ravel() for g in grid], axis=-1)
             )
-            self._action_spaces = {
+            self._action_spaces: dict[str, gymnasium.spaces.Space] = {
                 agent: gymnasium.spaces.Discrete(len(self.discrete_controls))
                 for agent in self.possible_agents
             }
@@ -463,9 +465,9 @@ class InformationSeekingEnv(ParallelEnv):
                     "pass a TargetSpace"
                 )
         if target_space == "planar":
-            return TargetSpace.planar(tuple(size))
+            return TargetSpace.planar((float(size[0]), float(size[1])))
         if target_space == "planar_with_orientation":
-            return TargetSpace.planar_with_orientation(tuple(size))
+            return TargetSpace.planar_with_orientation((float(size[0]), float(size[1])))
         raise ValueError(
             "target_space must be a TargetSpace, 'planar', 'planar_with_orientation' or None, "
             f"got {target_space!r}"
@@ -498,7 +500,7 @@ class InformationSeekingEnv(ParallelEnv):
                 raise ValueError(
                     f"start_spacing must exceed min_separation={self.min_separation}, got {spacing}"
                 )
-            positions = clustered_start_positions(self.n_agents, center, spacing)
+            positions = clustered_start_positions(self.n_agents, tuple(center.tolist()), spacing)
             # shift (never rescale) the cluster into the domain when it pokes out
             extent = positions.max(axis=0) - positions.min(axis=0)
             if np.any(extent > high - low):
@@ -633,7 +635,7 @@ class InformationSeekingEnv(ParallelEnv):
         self._recovered = np.zeros(self.n_agents, dtype=bool)
         self.last_measurements = None
         self.last_reception = None
-        positions = self.vehicle.position(self._states)
+        positions = self.vehicle.position(self._current_states())
         self._violations = separation_violations(positions, self.min_separation)
         self._trails = [positions.copy()] if self.render_mode is not None else []
         observations, infos = self._observe_all()
@@ -650,7 +652,7 @@ class InformationSeekingEnv(ParallelEnv):
                 stacklevel=3,
             )
         if "target" not in options:
-            return self._target
+            return self._current_target()
         target = np.asarray(options["target"], dtype=np.float64)
         if target.shape != (self.space.dim,) or not np.all(np.isfinite(target)):
             raise ValueError(
@@ -691,10 +693,10 @@ class InformationSeekingEnv(ParallelEnv):
             raise RuntimeError("step() called on a finished episode; call reset() first")
         controls = self._controls_from_actions(actions)
         self._states = np.asarray(
-            self.vehicle.step(self._states, controls, self.dt), dtype=np.float64
+            self.vehicle.step(self._current_states(), controls, self.dt), dtype=np.float64
         )
         self._target = self.target_motion.propagate(
-            self._target[None, :], self.space, self.dt, self._target_rng
+            self._current_target()[None, :], self.space, self.dt, self._target_rng
         )[0]
         positions = self.vehicle.position(self._states)
         n = self.n_agents
@@ -776,6 +778,7 @@ class InformationSeekingEnv(ParallelEnv):
         return controls
 
     def _discrete_index(self, agent: str, action: Any) -> int:
+        assert self.discrete_controls is not None  # discrete action type
         n_actions = len(self.discrete_controls)
         if isinstance(action, np.ndarray) and action.shape in ((), (1,)):
             action = action.reshape(()).item() if action.dtype.kind in "iu" else action
@@ -803,14 +806,15 @@ class InformationSeekingEnv(ParallelEnv):
 
     def _observe_all(self) -> tuple[dict[str, ObsArray], dict[str, dict[str, Any]]]:
         n = self.n_agents
-        positions = self.vehicle.position(self._states)
+        states = self._current_states()
+        positions = self.vehicle.position(states)
         relative = positions[None, :, :] - positions[:, None, :]  # [i, j] = x_j - x_i
         others = relative[~np.eye(n, dtype=bool)].reshape(n, 2 * (n - 1))
         grids = np.stack([b.mass_grid(self.belief_grid).ravel() for b in self._beliefs])
         estimates = np.stack([b.mmse() for b in self._beliefs])
-        flat = np.concatenate([self._states, others, grids, estimates], axis=1).astype(np.float32)
+        flat = np.concatenate([states, others, grids, estimates], axis=1).astype(np.float32)
         flat = np.clip(flat, self._obs_low, self._obs_high)  # float32 rounding at the bounds
-        vehicle_states = _readonly(self._states.copy())
+        vehicle_states = _readonly(states.copy())
         observations: dict[str, ObsArray] = {}
         infos: dict[str, dict[str, Any]] = {}
         for i, agent in enumerate(self.possible_agents):
@@ -829,6 +833,16 @@ class InformationSeekingEnv(ParallelEnv):
         return observations, infos
 
     # ----------------------------------------------------------------------------- accessors
+    def _current_states(self) -> FloatArray:
+        if self._states is None:
+            raise RuntimeError("the episode has not started: call reset() first")
+        return self._states
+
+    def _current_target(self) -> FloatArray:
+        if self._target is None:
+            raise RuntimeError("the episode has not started: call reset() first")
+        return self._target
+
     def true_target(self) -> FloatArray:
         """A copy of the true target state ``(d,)`` (for benchmarks only; never in observations)."""
         if self._target is None:
@@ -842,7 +856,7 @@ class InformationSeekingEnv(ParallelEnv):
     @property
     def vehicle_states(self) -> FloatArray:
         """Read-only ``(A, state_dim)`` copy of every vehicle's state."""
-        return _readonly(self._states.copy())
+        return _readonly(self._current_states().copy())
 
     @property
     def cycles(self) -> int:

@@ -20,6 +20,7 @@ Target motion models propagate target hypotheses (particles) over one time step 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
@@ -235,7 +236,7 @@ class TargetSpace:
 
 def _check_size(size: object) -> tuple[float, float]:
     try:
-        sx, sy = (float(s) for s in size)  # type: ignore[union-attr]
+        sx, sy = (float(s) for s in size)  # type: ignore[attr-defined]
     except (TypeError, ValueError) as err:
         raise ValueError(f"size must be a pair of positive floats, got {size!r}") from err
     if not (np.isfinite(sx) and np.isfinite(sy) and sx > 0 and sy > 0):
@@ -329,7 +330,9 @@ class RandomWalkTarget:
 
 
 #: Registry name -> target motion class.
-TARGET_MOTION_REGISTRY: Registry[TargetMotion] = Registry("target motion", TargetMotion)
+TARGET_MOTION_REGISTRY: Registry[Callable[..., TargetMotion]] = Registry(
+    "target motion", TargetMotion
+)
 TARGET_MOTION_REGISTRY.register("stationary", StationaryTarget)
 TARGET_MOTION_REGISTRY.register("random_walk", RandomWalkTarget)
 

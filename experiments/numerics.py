@@ -55,13 +55,16 @@ def pin() -> bool:
 
 def describe() -> dict[str, Any]:
     """NumPy's version and SIMD targets in use, and the BLAS libraries with their kernels."""
+    import importlib
+
     import numpy as np
     from threadpoolctl import threadpool_info
 
     try:
-        from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+        umath = importlib.import_module("numpy._core._multiarray_umath")
     except ImportError:  # pragma: no cover - older NumPy
-        from numpy.core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+        umath = importlib.import_module("numpy.core._multiarray_umath")
+    __cpu_dispatch__, __cpu_features__ = umath.__cpu_dispatch__, umath.__cpu_features__
 
     return {
         "numpy": np.__version__,

@@ -158,7 +158,7 @@ def _planning_times(planner_name: str, env_id: str, n_agents: int, repeats: int)
     observations, infos = env.reset(seed=1)
     policy = make_policy(planner_name, env, seed=1)
     observations, _, _, _, infos = env.step(policy.act(observations, infos))  # first step
-    times = []
+    times: list[float] = []
     while env.agents and len(times) < repeats:
         start = time.perf_counter()
         actions = policy.act(observations, infos)
@@ -239,7 +239,7 @@ def _env_step_times(env_id: str, repeats: int) -> np.ndarray:
     env.reset(seed=2)
     for agent in env.possible_agents:
         env.action_space(agent).seed(2)
-    times = []
+    times: list[float] = []
     while env.agents and len(times) < repeats:
         actions = {agent: env.action_space(agent).sample() for agent in env.agents}
         start = time.perf_counter()

@@ -10,6 +10,7 @@ Use :func:`make_sensor` to build one from a registry name (see :data:`SENSOR_REG
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from infoseek.envs.registries import Registry
@@ -36,7 +37,7 @@ __all__ = [
 ]
 
 #: Registry name -> sensor class (``SENSOR_REGISTRY.register(name, cls)`` adds one).
-SENSOR_REGISTRY: Registry[Sensor] = Registry("sensor", Sensor)
+SENSOR_REGISTRY: Registry[Callable[..., Sensor]] = Registry("sensor", Sensor)
 for _cls in (BearingSensor, BeaconSensor, RangeSensor):
     SENSOR_REGISTRY.register(_cls.name, _cls)
 

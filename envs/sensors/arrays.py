@@ -46,7 +46,7 @@ def as_points(
 ) -> FloatArray:
     """Convert to a finite float array (``dtype``) of shape ``(..., last_dim)``."""
     try:
-        result = np.asarray(array, dtype=dtype)
+        result: FloatArray = np.asarray(array, dtype=dtype)
     except (TypeError, ValueError) as error:
         raise TypeError(f"{owner}: {name} must be a float array, got {type(array).__name__}") from (
             error
@@ -69,7 +69,7 @@ def as_particles(
 ) -> FloatArray:
     """Convert to a finite float array (``dtype``) of shape ``(N, dim)`` (``(N, >= dim)``)."""
     try:
-        result = np.asarray(particles, dtype=dtype)
+        result: FloatArray = np.asarray(particles, dtype=dtype)
     except (TypeError, ValueError) as error:
         raise TypeError(
             f"{owner}: {name} must be a float array, got {type(particles).__name__}"

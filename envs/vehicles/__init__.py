@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from infoseek.envs.registries import Registry
@@ -12,7 +13,7 @@ from infoseek.envs.vehicles.quadrotor import Quadrotor
 __all__ = ["VEHICLE_REGISTRY", "Airplane", "Quadrotor", "Vehicle", "make_vehicle"]
 
 #: Registry name -> vehicle class (``VEHICLE_REGISTRY.register(name, cls)`` adds one).
-VEHICLE_REGISTRY: Registry[Vehicle] = Registry("vehicle", Vehicle)
+VEHICLE_REGISTRY: Registry[Callable[..., Vehicle]] = Registry("vehicle", Vehicle)
 VEHICLE_REGISTRY.register("airplane", Airplane)
 VEHICLE_REGISTRY.register("quadrotor", Quadrotor)
 

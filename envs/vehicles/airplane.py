@@ -104,7 +104,7 @@ class Airplane:
     name = "airplane"
     state_dim = 3
     control_dim = 1
-    state_names = ("x", "y", "heading")
+    state_names: tuple[str, ...] = ("x", "y", "heading")
     control_names = ("turn_rate",)
     initial_heading = np.pi / 4
 

@@ -44,7 +44,7 @@ class Quadrotor:
     name = "quadrotor"
     state_dim = 4
     control_dim = 2
-    state_names = ("x", "y", "vx", "vy")
+    state_names: tuple[str, ...] = ("x", "y", "vx", "vy")
     control_names = ("ax", "ay")
 
     def __init__(self, max_accel: float = 1.0, max_speed: float = 2.0) -> None:

@@ -87,7 +87,7 @@ __all__ = [
 ]
 
 #: Registry name -> estimator class.
-ESTIMATORS: Registry[MIEstimator] = Registry("MI estimator", MIEstimator)
+ESTIMATORS: Registry[type[MIEstimator]] = Registry("MI estimator", MIEstimator)
 for _cls in (
     AdditiveFFTEstimator,
     ShiftKernelEstimator,

@@ -142,7 +142,7 @@ class KernelTable:
         node = np.minimum(u.astype(np.intp), self.shapes.size - 2)
         t = u - node
         pairs = rows[node]  # (..., 2, K + 1)
-        coefficients = pairs[..., 1, :] * t[..., None].astype(np.float32)
+        coefficients: np.ndarray = pairs[..., 1, :] * t[..., None].astype(np.float32)
         coefficients += pairs[..., 0, :]
         h = self.entropies[node] + t * (self.entropies[node + 1] - self.entropies[node])
         return coefficients, h

@@ -276,16 +276,17 @@ class NoiseKernel:
                 )
         flat_index = base[..., None] + stencil
         flat_weight = np.broadcast_to(weight, batch + (n, 3**k))
-        histogram = np.bincount(
-            flat_index.ravel(), flat_weight.ravel(), minlength=n_batch * cells
+        histogram = np.asarray(
+            np.bincount(flat_index.ravel(), flat_weight.ravel(), minlength=n_batch * cells),
+            dtype=np.float64,
         ).reshape((n_batch,) + (padded,) * k)
         # Fold the guard nodes back: across the seam (periodic) or onto the edge node.
         for d in range(1, k + 1):
-            first = [slice(None)] * (k + 1)
-            last = [slice(None)] * (k + 1)
+            first: list[slice | int] = [slice(None)] * (k + 1)
+            last: list[slice | int] = [slice(None)] * (k + 1)
             first[d], last[d] = 0, q + 1
-            into_low = [slice(None)] * (k + 1)
-            into_high = [slice(None)] * (k + 1)
+            into_low: list[slice | int] = [slice(None)] * (k + 1)
+            into_high: list[slice | int] = [slice(None)] * (k + 1)
             into_low[d], into_high[d] = 1, q
             if self.periodic:
                 histogram[tuple(into_high)] += histogram[tuple(first)]
@@ -324,9 +325,10 @@ class NoiseKernel:
         index = base[..., None] + block  # (C, M, N, 9)
         scaled_a = weights_a * particle_weights[:, None]
         values = scaled_a[:, None, :, :, None] * weights_b[None, :, :, None, :]
-        histogram = np.bincount(index.ravel(), values.ravel(), n_a * n_b * padded * padded).reshape(
-            n_a, n_b, padded, padded
-        )
+        histogram = np.asarray(
+            np.bincount(index.ravel(), values.ravel(), n_a * n_b * padded * padded),
+            dtype=np.float64,
+        ).reshape(n_a, n_b, padded, padded)
         if self.periodic:
             histogram[:, :, q, :] += histogram[:, :, 0, :]
             histogram[:, :, 1, :] += histogram[:, :, q + 1, :]
@@ -355,6 +357,7 @@ class NoiseKernel:
         n_batch = histograms.shape[0]
         k = histograms.ndim - 1
         length = self.length
+        grids: NDArray[Any]
         if length == q:
             grids = np.asarray(histograms, dtype=dtype)
         else:

@@ -45,8 +45,9 @@ def observation_nodes(domain: ObservationDomain, n_points: int) -> tuple[FloatAr
     low, high = float(domain.low[0]), float(domain.high[0])
     if domain.periodic[0]:
         spacing = (high - low) / n_points
-        return low + spacing * np.arange(n_points), spacing
-    return np.linspace(low, high, n_points), (high - low) / (n_points - 1)
+        return low + spacing * np.arange(n_points, dtype=np.float64), spacing
+    nodes: FloatArray = np.linspace(low, high, n_points)
+    return nodes, (high - low) / (n_points - 1)
 
 
 def check_points(n_points: object, name: str = "n_points") -> int | None:

@@ -147,7 +147,7 @@ class WindowSide:
         self.size = int(self.targets.shape[0])
         self.out = self.width + 2 * kernel.window_half_width
         self.fits = not kernel.periodic or self.out <= kernel.n_points
-        self._stencils: dict[bool, FloatArray] = {}
+        self._stencils: dict[bool, NDArray[np.float32]] = {}
         self.mask: FloatArray | None = None
         if not kernel.periodic:  # the full grid keeps only the domain's nodes
             nodes = self.start[:, None] - kernel.window_half_width + np.arange(self.out)
@@ -216,10 +216,11 @@ def windowed_pair_entropies(
                 + side_a.targets[begin:end, None, :, :, None]
             ) * width_b + side_b.targets[None, :, :, None, :]
             weight = weighted_a[begin:end, None, :, :, None] * side_b.weights[None, :, :, None, :]
-            histogram = np.bincount(
-                flat.ravel(), weight.ravel(), size * n_b * width_a * width_b
-            ).reshape(size, n_b, width_a, width_b)
-            histogram = histogram.astype(np.float32)
+            counts = np.asarray(
+                np.bincount(flat.ravel(), weight.ravel(), size * n_b * width_a * width_b),
+                dtype=np.float64,
+            )
+            histogram = counts.reshape(size, n_b, width_a, width_b).astype(np.float32)
         # Linear convolution along both axes: (conv_a H conv_b^T), axes (c, m, out_b, out_a),
         # in float32 (probabilities to ~1e-7: far below any planning or test tolerance).
         smoothed = np.matmul(histogram, conv_b.T)  # (size, n_b, width_a, out_b)
