@@ -6,13 +6,19 @@ One frame shows, over the search domain box:
   ``0.9 * (1 - w_k / max_k w_k)``); when the target state has an orientation coordinate (the
   beacon's ``psi``) each particle is a short line through its position along that orientation,
   as in the paper's Fig. 2, otherwise a dot;
-* every vehicle's waypoint history (red dots joined by a thin line, current position larger);
-* the belief's MMSE estimate (black X) and the true target position (red square).
+* every vehicle's trail in its own colour (waypoints joined by a thin line), its current
+  position and an arrow along its heading (airplanes) or velocity (quadrotors);
+* the belief's MMSE estimate (black X) and the true target position (red square);
+* a legend (below the axes), axis labels, and a title with the step and the belief's posterior mass within the
+  localisation radius of its estimate;
+* once the belief has collapsed (90 % of its weight inside a box smaller than an eighth of the
+  domain), an inset that zooms on it, with the estimate, the truth and the localisation radius.
 
-The figure and its artists are created once and updated in place between frames.
-``rgb_array`` frames are drawn with the Agg canvas (no display, no global backend change);
-``human`` frames use pyplot's interactive figure. Matplotlib is imported only here, and this
-module is imported only when an environment renders.
+The axes always contain the domain box, every vehicle and every trail. The figure and its
+artists are created once and updated in place between frames. ``rgb_array`` frames are drawn
+with the Agg canvas (no display, no global backend change); ``human`` frames use pyplot's
+interactive figure. Matplotlib is imported only here, and this module is imported only when an
+environment renders.
 """
 
 from __future__ import annotations
@@ -26,6 +32,18 @@ from infoseek.envs.targets import TargetSpace
 
 FloatArray = NDArray[np.float64]
 
+#: Fraction of the belief's weight that must fit in the zoom box for the inset to appear.
+COLLAPSED_MASS = 0.9
+#: Largest side of that box, as a fraction of the domain's largest side.
+COLLAPSED_EXTENT = 1.0 / 8.0
+
+
+def _palette(n: int) -> list[Any]:
+    from matplotlib import colormaps
+
+    cmap = colormaps["tab10"]
+    return [cmap(i % 10) for i in range(n)]
+
 
 class SearchRenderer:
     """Draws search frames into one reused matplotlib figure.
@@ -38,6 +56,16 @@ class SearchRenderer:
         size_inches: Figure width and height in inches.
         dpi: Dots per inch (frame size is ``size_inches * dpi`` pixels).
         fps: Frames per second of the ``human`` window.
+
+    Attributes:
+        figure: The matplotlib figure (reused between frames).
+        axes: Its main axes (domain box, particles, trails, markers).
+        legend: The legend (created with the first vehicles drawn).
+        trail_lines: One line per vehicle, in that vehicle's colour.
+        arrows: The quiver of heading arrows (one per vehicle).
+        title_artist: The title text (step and posterior mass).
+        inset: The zoom axes on a collapsed belief (``None`` until the belief first collapses;
+            hidden while it is spread).
     """
 
     def __init__(
@@ -46,7 +74,7 @@ class SearchRenderer:
         *,
         human: bool = False,
         title: str = "",
-        size_inches: float = 5.0,
+        size_inches: float = 6.0,
         dpi: int = 100,
         fps: float = 4.0,
     ) -> None:
@@ -59,9 +87,8 @@ class SearchRenderer:
         self._low, self._high = low[:2], high[:2]
         angle_dims = [k for k in range(2, space.dim) if space.periodic[k]]
         self._angle_dim: int | None = angle_dims[0] if angle_dims else None
-        self._segment_half_length = 0.02 * float(np.max(self._high - self._low))
+        self._scale = float(np.max(self._high - self._low))
 
-        from matplotlib.collections import LineCollection
         from matplotlib.patches import Rectangle
 
         if human:
@@ -76,11 +103,11 @@ class SearchRenderer:
             self.figure = Figure(figsize=(size_inches, size_inches), dpi=dpi)
             FigureCanvasAgg(self.figure)
         ax = self.figure.add_subplot(1, 1, 1)
+        self.figure.subplots_adjust(left=0.1, right=0.97, top=0.9, bottom=0.2)
         self.axes = ax
-        margin = 0.05 * (self._high - self._low)
-        ax.set_xlim(self._low[0] - margin[0], self._high[0] + margin[0])
-        ax.set_ylim(self._low[1] - margin[1], self._high[1] + margin[1])
         ax.set_aspect("equal")
+        ax.set_xlabel("x (units)")
+        ax.set_ylabel("y (units)")
         ax.add_patch(
             Rectangle(
                 tuple(self._low),
@@ -90,26 +117,109 @@ class SearchRenderer:
                 linewidth=1.0,
             )
         )
+        self._particles = self._particle_artist(ax, self._scale * 0.02)
+        self.trail_lines: list[Any] = []
+        self._heads: Any = None
+        self.arrows: Any = None
+        (self._estimate,) = ax.plot([], [], **_estimate_style(12))
+        (self._target,) = ax.plot([], [], **_target_style(9))
+        self.title_artist = ax.set_title(title)
+        self.legend: Any = None
+        self.inset: Any = None
+        self._fit_axes(np.empty((0, 2)))
+
+    # -- artists
+    def _particle_artist(self, ax: Any, half_length: float) -> Any:
+        from matplotlib.collections import LineCollection
+
         if self._angle_dim is not None:
-            self._particles: Any = LineCollection([], linewidths=0.8)
-            ax.add_collection(self._particles)
+            artist = LineCollection([], linewidths=0.8, zorder=2)
+            artist.half_length = half_length  # type: ignore[attr-defined]
+            ax.add_collection(artist)
+            return artist
+        return ax.scatter([], [], s=4, marker="o", linewidths=0, zorder=2)
+
+    def _set_particles(
+        self, artist: Any, positions: FloatArray, angles: FloatArray | None, colours: FloatArray
+    ) -> None:
+        if angles is not None:
+            half = artist.half_length * np.stack([np.cos(angles), np.sin(angles)], axis=-1)
+            artist.set_segments(np.stack([positions - half, positions + half], axis=1))
+            artist.set_color(colours)
         else:
-            self._particles = ax.scatter([], [], s=4, marker="o", linewidths=0)
-        self._trail_lines: list[Any] = []
-        self._heads = ax.scatter([], [], s=30, c="red", zorder=4)
-        (self._estimate,) = ax.plot([], [], "kx", markersize=12, markeredgewidth=2.5, zorder=5)
-        (self._target,) = ax.plot(
-            [],
-            [],
-            "s",
-            markersize=9,
-            markerfacecolor="none",
-            markeredgecolor="red",
-            markeredgewidth=2.0,
+            artist.set_offsets(positions)
+            artist.set_facecolor(colours)
+
+    def _vehicle_artists(self, n_agents: int) -> None:
+        if len(self.trail_lines) == n_agents:
+            return
+        colours = _palette(n_agents)
+        for a in range(len(self.trail_lines), n_agents):
+            (line,) = self.axes.plot(
+                [], [], ".-", color=colours[a], markersize=3, linewidth=0.8, zorder=3
+            )
+            self.trail_lines.append(line)
+        self._heads = self.axes.scatter(
+            np.zeros(n_agents), np.zeros(n_agents), s=40, c=colours, zorder=4
+        )
+        self.arrows = self.axes.quiver(
+            np.zeros(n_agents),
+            np.zeros(n_agents),
+            np.zeros(n_agents),
+            np.zeros(n_agents),
+            color=colours,
+            angles="xy",
+            scale_units="xy",
+            scale=1.0,
+            width=0.006,
             zorder=5,
         )
-        self._title = ax.set_title(title)
+        self._draw_legend(colours)
 
+    def _draw_legend(self, colours: list[Any]) -> None:
+        from matplotlib.lines import Line2D
+
+        particle = Line2D(
+            [],
+            [],
+            color="0.35",
+            marker="|" if self._angle_dim is not None else "o",
+            markersize=6,
+            linestyle="none",
+        )
+        handles: list[Any] = [
+            particle,
+            Line2D([], [], **_estimate_style(8)),
+            Line2D([], [], **_target_style(8)),
+        ]
+        labels = ["particles (darker = heavier)", "MMSE estimate", "true target"]
+        if len(colours) <= 4:
+            for a, colour in enumerate(colours):
+                handles.append(Line2D([], [], color=colour, marker="o", markersize=5))
+                labels.append(f"vehicle {a} (trail, heading)")
+        else:
+            handles.append(Line2D([], [], color=colours[0], marker="o", markersize=5))
+            labels.append(f"{len(colours)} vehicles (trail, heading; one colour each)")
+        # below the axes, so that it never hides particles or vehicles
+        self.legend = self.axes.legend(
+            handles,
+            labels,
+            loc="upper center",
+            bbox_to_anchor=(0.5, -0.09),
+            ncol=2,
+            fontsize=7,
+            frameon=False,
+        )
+
+    def _fit_axes(self, points: FloatArray) -> None:
+        """Limits that contain the domain box and every point, with a margin."""
+        low = np.minimum(self._low, points.min(axis=0)) if points.size else self._low.copy()
+        high = np.maximum(self._high, points.max(axis=0)) if points.size else self._high.copy()
+        margin = 0.05 * float(np.max(high - low))
+        self.axes.set_xlim(low[0] - margin, high[0] + margin)
+        self.axes.set_ylim(low[1] - margin, high[1] + margin)
+
+    # -- frame
     def draw(
         self,
         *,
@@ -119,6 +229,9 @@ class SearchRenderer:
         target: FloatArray,
         trails: FloatArray | None,
         step: int,
+        headings: FloatArray | None = None,
+        mass: float | None = None,
+        radius: float | None = None,
     ) -> NDArray[np.uint8] | None:
         """Update the artists and draw one frame.
 
@@ -129,6 +242,10 @@ class SearchRenderer:
             target: ``(d,)`` true target state.
             trails: ``(T, A, 2)`` vehicle positions so far (``None``: no trails).
             step: Step counter shown in the title.
+            headings: ``(A, 2)`` unit heading (or velocity) vectors of the vehicles, zero rows
+                for a vehicle at rest (``None``: no arrows).
+            mass: Posterior mass within ``radius`` of the estimate (shown in the title).
+            radius: The localisation radius (drawn in the inset).
 
         Returns:
             ``(H, W, 3)`` uint8 RGB frame off-screen; ``None`` in ``human`` mode.
@@ -138,28 +255,30 @@ class SearchRenderer:
         colours = np.stack([grey, grey, grey, np.ones_like(grey)], axis=-1)
         order = np.argsort(weights, kind="stable")  # heaviest drawn last (on top)
         positions = particles[order, :2]
-        if self._angle_dim is not None:
-            angle = particles[order, self._angle_dim]
-            half = self._segment_half_length * np.stack([np.cos(angle), np.sin(angle)], axis=-1)
-            self._particles.set_segments(np.stack([positions - half, positions + half], axis=1))
-            self._particles.set_color(colours[order])
-        else:
-            self._particles.set_offsets(positions)
-            self._particles.set_facecolor(colours[order])
+        angles = None if self._angle_dim is None else particles[order, self._angle_dim]
+        self._set_particles(self._particles, positions, angles, colours[order])
 
+        points = [particles[:, :2], np.asarray(target[:2])[None, :]]
         if trails is not None and trails.size:
             n_agents = trails.shape[1]
-            while len(self._trail_lines) < n_agents:
-                (line,) = self.axes.plot(
-                    [], [], ".-", color="red", markersize=3, linewidth=0.6, zorder=3
-                )
-                self._trail_lines.append(line)
-            for a, line in enumerate(self._trail_lines[:n_agents]):
+            self._vehicle_artists(n_agents)
+            for a, line in enumerate(self.trail_lines[:n_agents]):
                 line.set_data(trails[:, a, 0], trails[:, a, 1])
             self._heads.set_offsets(trails[-1])
+            arrows = np.zeros((n_agents, 2)) if headings is None else np.asarray(headings)
+            self.arrows.set_offsets(trails[-1])
+            self.arrows.set_UVC(*(0.05 * self._scale * arrows).T)
+            points.append(trails.reshape(-1, 2))
+            points.append(trails[-1] + 0.05 * self._scale * arrows)
+        self._fit_axes(np.concatenate(points))
         self._estimate.set_data([estimate[0]], [estimate[1]])
         self._target.set_data([target[0]], [target[1]])
-        self._title.set_text(f"{self.title}  t = {step}" if self.title else f"t = {step}")
+        title = f"{self.title}  t = {step}" if self.title else f"t = {step}"
+        if mass is not None:
+            within = "" if radius is None else f" within {radius:g}"
+            title += f"\nposterior mass{within} of the estimate: {mass:.2f}"
+        self.title_artist.set_text(title)
+        self._update_inset(particles, weights, estimate, target, radius, colours, order)
 
         if self.human:
             import matplotlib.pyplot as plt
@@ -171,6 +290,54 @@ class SearchRenderer:
         canvas.draw()
         return np.asarray(canvas.buffer_rgba())[..., :3].copy()  # type: ignore[attr-defined]
 
+    def _update_inset(
+        self,
+        particles: FloatArray,
+        weights: FloatArray,
+        estimate: FloatArray,
+        target: FloatArray,
+        radius: float | None,
+        colours: FloatArray,
+        order: NDArray[np.intp],
+    ) -> None:
+        """Show (or hide) the zoom on a collapsed belief."""
+        half = _collapsed_half_width(particles[:, :2], weights, np.asarray(estimate[:2]))
+        collapsed = half is not None and 2.0 * half < COLLAPSED_EXTENT * self._scale
+        if not collapsed:
+            if self.inset is not None:
+                self.inset.set_visible(False)
+            return
+        assert half is not None
+        if self.inset is None:
+            from matplotlib.patches import Circle
+
+            self.inset = self.axes.inset_axes((0.6, 0.6, 0.38, 0.38))
+            self.inset.set_xticks([])
+            self.inset.set_yticks([])
+            self.inset.set_aspect("equal")
+            self.inset.set_title("zoom on the belief", fontsize=7)
+            self._inset_particles = self._particle_artist(self.inset, 0.15 * half)
+            (self._inset_estimate,) = self.inset.plot([], [], **_estimate_style(9))
+            (self._inset_target,) = self.inset.plot([], [], **_target_style(7))
+            self._inset_radius = Circle(
+                (0.0, 0.0), 1.0, fill=False, linestyle="--", linewidth=0.8, edgecolor="0.3"
+            )
+            self.inset.add_patch(self._inset_radius)
+        self.inset.set_visible(True)
+        view = max(1.5 * half, 1.2 * (radius or 0.0))
+        centre = np.asarray(estimate[:2])
+        self.inset.set_xlim(centre[0] - view, centre[0] + view)
+        self.inset.set_ylim(centre[1] - view, centre[1] + view)
+        angles = None if self._angle_dim is None else particles[order, self._angle_dim]
+        if self._angle_dim is not None:
+            self._inset_particles.half_length = 0.15 * view
+        self._set_particles(self._inset_particles, particles[order, :2], angles, colours[order])
+        self._inset_estimate.set_data([estimate[0]], [estimate[1]])
+        self._inset_target.set_data([target[0]], [target[1]])
+        self._inset_radius.set_center(tuple(centre))
+        self._inset_radius.set_radius(radius if radius else 0.0)
+        self._inset_radius.set_visible(bool(radius))
+
     def close(self) -> None:
         """Close the figure (and its window in ``human`` mode)."""
         if self.human:
@@ -178,3 +345,44 @@ class SearchRenderer:
 
             plt.close(self.figure)
         self.figure = None  # type: ignore[assignment]
+
+
+def _estimate_style(size: float) -> dict[str, Any]:
+    from matplotlib import patheffects
+
+    return {
+        "marker": "x",
+        "markersize": size,
+        "markeredgecolor": "black",
+        "markeredgewidth": 2.5,
+        "zorder": 6,
+        "linestyle": "none",
+        "path_effects": [patheffects.withStroke(linewidth=4.5, foreground="white")],
+    }
+
+
+def _target_style(size: float) -> dict[str, Any]:
+    return {
+        "marker": "s",
+        "markersize": size,
+        "markerfacecolor": "none",
+        "markeredgecolor": "red",
+        "markeredgewidth": 2.0,
+        "zorder": 6,
+        "linestyle": "none",
+    }
+
+
+def _collapsed_half_width(
+    positions: FloatArray, weights: FloatArray, centre: FloatArray
+) -> float | None:
+    """Half width of the smallest square around ``centre`` holding COLLAPSED_MASS of the
+    weight (``None`` without weight)."""
+    total = float(np.sum(weights))
+    if not positions.size or not total > 0:
+        return None
+    distance = np.max(np.abs(positions - centre), axis=1)  # Chebyshev distance
+    order = np.argsort(distance)
+    cumulative = np.cumsum(weights[order]) / total
+    index = int(np.searchsorted(cumulative, COLLAPSED_MASS))
+    return float(distance[order][min(index, distance.size - 1)])

@@ -864,6 +864,12 @@ class InformationSeekingEnv(ParallelEnv):
         return self._cycles
 
     # ----------------------------------------------------------------------------- rendering
+    @property
+    def renderer(self) -> Any:
+        """The :class:`~infoseek.envs.rendering.SearchRenderer` drawing this episode's frames
+        (``None`` before the first ``render()`` and after ``close()``)."""
+        return self._renderer
+
     def render(self) -> NDArray[np.uint8] | None:
         """Draw agent 0's belief, the trails, the MMSE estimate (X) and the true target (square).
 
@@ -884,15 +890,32 @@ class InformationSeekingEnv(ParallelEnv):
                 self.space, human=self.render_mode == "human", title=self.metadata["name"]
             )
         belief = self._beliefs[0]
+        estimate = belief.mmse()
         frame = self._renderer.draw(
             particles=np.asarray(belief.particles),
             weights=np.asarray(belief.weights),
-            estimate=belief.mmse(),
+            estimate=estimate,
             target=self._target,
             trails=np.stack(self._trails) if self._trails else None,
             step=self._cycles,
+            headings=self._headings(self._current_states()),
+            mass=float(belief.mass_within(self.localization_radius, estimate)),
+            radius=self.localization_radius,
         )
         return frame if self.render_mode == "rgb_array" else None
+
+    def _headings(self, states: FloatArray) -> FloatArray:
+        """``(A, 2)`` unit vectors along each vehicle's heading (a ``heading`` state) or
+        velocity (``vx``, ``vy`` states; zero at rest), for the rendered arrows."""
+        names = list(self.vehicle.state_names)
+        if "heading" in names:
+            angle = states[:, names.index("heading")]
+            return np.stack([np.cos(angle), np.sin(angle)], axis=1)
+        if "vx" in names and "vy" in names:
+            velocity = states[:, [names.index("vx"), names.index("vy")]]
+            speed = np.linalg.norm(velocity, axis=1, keepdims=True)
+            return np.where(speed > 1e-9, velocity / np.maximum(speed, 1e-9), 0.0)
+        return np.zeros((states.shape[0], 2))
 
     def close(self) -> None:
         """Release the rendering figure."""

@@ -652,21 +652,24 @@ class BenchResult:
     skipped: int
 
 
-def trial_progress_bar(total: int, desc: str, progress: bool | None, initial: int = 0) -> Any:
-    """A tqdm bar counting trials on stderr.
+def trial_progress_bar(
+    total: int, desc: str, progress: bool | None, initial: int = 0, unit: str = "trial"
+) -> Any:
+    """A tqdm bar (count, elapsed time and the estimated time left) on stderr.
 
     Args:
-        total: Trials in all.
+        total: Units in all.
         desc: Label of the bar.
         progress: Show it (``None``: only on a terminal).
-        initial: Trials already done.
+        initial: Units already done.
+        unit: What is counted.
     """
     from tqdm import tqdm
 
     return tqdm(
         total=total,
         initial=initial,
-        unit="trial",
+        unit=unit,
         desc=desc,
         disable=(not progress) if progress is not None else None,
         file=sys.stderr,

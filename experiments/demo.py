@@ -5,13 +5,15 @@ particles per vehicle, the pairwise-node planner (eq. 22) with the decentralised
 (section III.D). Each step prints the posterior mass within ``localization_radius`` of agent 0's
 MMSE estimate (the metric of the paper's Fig. 1), the estimation error against the true target
 (read through the evaluation accessor, never shown to the planner), the belief entropy and the
-planning time. Frames rendered by the environment are written as an animated GIF, and the last
-frame as a PNG.
+planning time, above a progress bar with the time left. Frames rendered by the environment are
+written as an animated GIF, and the last frame as a PNG (atomically); an interrupted run (Ctrl-C)
+writes the frames it has and exits with status 130.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from pathlib import Path
 
@@ -19,6 +21,7 @@ import numpy as np
 
 from infoseek.envs import make, registry
 from infoseek.experiments.arguments import check_writable_directory
+from infoseek.experiments.bench import trial_progress_bar
 from infoseek.experiments.policies import PLANNER_NAMES, make_policy
 
 
@@ -38,6 +41,12 @@ def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
         "--out", type=Path, default=None, help="output folder (default infoseek-out/)"
     )
     parser.add_argument("--fps", type=float, default=4.0, help="frames per second of the GIF")
+    parser.add_argument(
+        "--no-progress",
+        dest="progress",
+        action="store_false",
+        help="no progress bar (default: on a terminal)",
+    )
 
 
 def run_demo(args: argparse.Namespace) -> int:
@@ -60,51 +69,69 @@ def run_demo(args: argparse.Namespace) -> int:
     stem = f"demo-{args.env}-{args.planner}-{args.agents}agents-seed{args.seed}"
 
     frames = [env.render()]
-    truth = env.unwrapped.true_target()
     radius = env.unwrapped.localization_radius
     first = env.possible_agents[0]
     print(
         f"{args.env}: {args.agents} x {args.planner}, {args.particles} particles, seed {args.seed}"
     )
     mass_header = f"mass<={radius:g}"
-    print(f"{'step':>4} {mass_header:>9} {'error':>8} {'entropy':>8} {'plan ms':>8}")
-    step = 0
-    while env.agents:
-        start = time.perf_counter()
-        actions = policy.act(observations, infos)
-        plan_ms = 1e3 * (time.perf_counter() - start)
-        observations, _, _, _, infos = env.step(actions)
-        step += 1
-        truth = env.unwrapped.true_target()
-        info = infos[first]
-        view = info["belief"]
-        estimate = np.average(view.particles[:, :2], weights=view.weights, axis=0)
-        error = float(np.hypot(*(estimate - truth[:2])))
-        print(
-            f"{step:>4} {info['posterior_mass']:>9.3f} {error:>8.2f} "
-            f"{info['entropy']:>8.3f} {plan_ms:>8.1f}"
-        )
-        frames.append(env.render())
-    env.close()
+    print(f"{'step':>4} {mass_header:>9} {'error':>8} {'entropy':>8} {'plan ms':>8}", flush=True)
+    bar = trial_progress_bar(
+        int(env.unwrapped.max_cycles), "demo", None if args.progress else False, unit="step"
+    )
+    interrupted = False
+    try:
+        step = 0
+        while env.agents:
+            start = time.perf_counter()
+            actions = policy.act(observations, infos)
+            plan_ms = 1e3 * (time.perf_counter() - start)
+            observations, _, _, _, infos = env.step(actions)
+            step += 1
+            truth = env.unwrapped.true_target()
+            info = infos[first]
+            view = info["belief"]
+            estimate = np.average(view.particles[:, :2], weights=view.weights, axis=0)
+            error = float(np.hypot(*(estimate - truth[:2])))
+            bar.write(
+                f"{step:>4} {info['posterior_mass']:>9.3f} {error:>8.2f} "
+                f"{info['entropy']:>8.3f} {plan_ms:>8.1f}"
+            )
+            frames.append(env.render())
+            bar.update(1)
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        bar.close()
+        env.close()
 
     gif_path = out / f"{stem}.gif"
     png_path = out / f"{stem}.png"
     _write_gif(frames, gif_path, fps=args.fps)
     _write_png(frames[-1], png_path)
+    if interrupted:
+        print(f"interrupted after {len(frames) - 1} step(s); the frames so far are written")
     print(f"wrote {gif_path}")
     print(f"wrote {png_path}")
-    return 0
+    return 130 if interrupted else 0
 
 
 def _write_gif(frames: list[np.ndarray], path: Path, fps: float) -> None:
+    """Write the animation atomically (temporary file, then rename: never a partial GIF)."""
     from PIL import Image
 
     images = [Image.fromarray(frame) for frame in frames]
     duration_ms = int(round(1000.0 / fps))
-    images[0].save(path, save_all=True, append_images=images[1:], duration=duration_ms, loop=0)
+    tmp = path.with_name(f".{path.name}.tmp")
+    images[0].save(
+        tmp, format="GIF", save_all=True, append_images=images[1:], duration=duration_ms, loop=0
+    )
+    os.replace(tmp, path)
 
 
 def _write_png(frame: np.ndarray, path: Path) -> None:
     from PIL import Image
 
-    Image.fromarray(frame).save(path)
+    tmp = path.with_name(f".{path.name}.tmp")
+    Image.fromarray(frame).save(tmp, format="PNG")
+    os.replace(tmp, path)

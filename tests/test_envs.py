@@ -596,13 +596,13 @@ def test_rgb_array_render_returns_frames_that_follow_the_episode(env_id: str) ->
     first = env.render()
     assert first.dtype == np.uint8 and first.ndim == 3 and first.shape[2] == 3
     assert first.shape[0] > 100 and first.shape[1] > 100
-    figure = env._renderer.figure
+    figure = env.unwrapped.renderer.figure
     rng = np.random.default_rng(0)
     for _ in range(3):
         env.step(_random_actions(env, rng))
     later = env.render()
     assert later.shape == first.shape
-    assert env._renderer.figure is figure  # the figure is reused
+    assert env.unwrapped.renderer.figure is figure  # the figure is reused
     assert np.any(later != first)
     assert (later < 128).mean() > 0.001  # something dark is drawn (particles, box, markers)
     # the true target is drawn as a red square: strongly red pixels exist
@@ -617,7 +617,7 @@ def test_render_without_render_mode_returns_none_and_keeps_no_figure() -> None:
     env.step({"vehicle_0": np.zeros(1)})
     with pytest.warns(UserWarning, match="render_mode"):
         assert env.render() is None
-    assert env._renderer is None and env._trails == []
+    assert env.unwrapped.renderer is None and env._trails == []
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)

@@ -1,0 +1,165 @@
+"""The rendered frame explains itself: every vehicle and trail inside the axes, one colour and a
+heading arrow per vehicle, a legend, axis labels, the step and posterior mass in the title, a
+zoom inset exactly when the belief has collapsed; ``infoseek demo`` writes what it has when
+interrupted."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from matplotlib.colors import to_rgba
+from PIL import Image
+
+import infoseek.envs
+import infoseek.experiments.demo as demo
+from infoseek.envs.rendering import SearchRenderer
+from infoseek.experiments.cli import main
+
+SMALL = {"n_particles": 300}
+
+
+def _inside(renderer: SearchRenderer, points: np.ndarray) -> bool:
+    x0, x1 = renderer.axes.get_xlim()
+    y0, y1 = renderer.axes.get_ylim()
+    return bool(
+        np.all((points[:, 0] >= x0) & (points[:, 0] <= x1))
+        and np.all((points[:, 1] >= y0) & (points[:, 1] <= y1))
+    )
+
+
+def _uniform_particles(rng: np.random.Generator, n: int = 500) -> tuple[np.ndarray, np.ndarray]:
+    return rng.uniform(0.0, 40.0, size=(n, 2)), np.full(n, 1.0 / n)
+
+
+def _draw(renderer: SearchRenderer, particles: np.ndarray, weights: np.ndarray, **kw: Any) -> Any:
+    estimate = np.average(particles, weights=weights, axis=0)
+    return renderer.draw(
+        particles=particles,
+        weights=weights,
+        estimate=estimate,
+        target=np.array([20.0, 20.0]),
+        **kw,
+    )
+
+
+def test_axes_contain_vehicles_and_trails_that_leave_the_domain() -> None:
+    env = infoseek.envs.make("bearings_v0", render_mode="rgb_array", n_agents=2, **SMALL)
+    renderer = SearchRenderer(env.unwrapped.space)
+    rng = np.random.default_rng(0)
+    particles, weights = _uniform_particles(rng)
+    # two vehicles flying straight out of the 40 x 40 box, to (-30, 20) and (75, 90)
+    t = np.linspace(0.0, 1.0, 16)[:, None]
+    trails = np.stack([(1 - t) * [5.0, 20.0] + t * [-30.0, 20.0], t * [75.0, 90.0]], axis=1)
+    headings = np.array([[-1.0, 0.0], [np.sqrt(0.5), np.sqrt(0.5)]])
+    _draw(renderer, particles, weights, trails=trails, step=15, headings=headings)
+    assert _inside(renderer, trails.reshape(-1, 2))
+    assert _inside(renderer, np.array([[0.0, 0.0], [40.0, 40.0]]))  # the domain box too
+    tips = renderer.arrows.get_offsets() + renderer.arrows.U[:, None] * [1, 0]
+    assert _inside(renderer, np.asarray(tips))
+    renderer.close()
+    env.close()
+
+
+def test_demo_episode_keeps_every_vehicle_on_screen() -> None:
+    env = infoseek.envs.make("bearings_v0", render_mode="rgb_array", n_agents=4, **SMALL)
+    env.reset(seed=0)
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        env.step({a: rng.uniform(-1.0, 1.0, size=1) for a in env.agents})
+        env.render()
+        positions = env.unwrapped.vehicle.position(env.unwrapped.vehicle_states)
+        assert _inside(env.unwrapped.renderer, positions)
+    env.close()
+
+
+def test_legend_colours_headings_and_title() -> None:
+    env = infoseek.envs.make("bearings_v0", render_mode="rgb_array", n_agents=4, **SMALL)
+    _, infos = env.reset(seed=0)
+    _, _, _, _, infos = env.step({a: np.zeros(1) for a in env.agents})
+    env.render()
+    renderer = env.unwrapped.renderer
+    labels = [text.get_text() for text in renderer.legend.get_texts()]
+    assert labels[:3] == ["particles (darker = heavier)", "MMSE estimate", "true target"]
+    assert [label.split(" (")[0] for label in labels[3:]] == [f"vehicle {a}" for a in range(4)]
+    colours = {to_rgba(line.get_color()) for line in renderer.trail_lines}
+    assert len(colours) == 4  # one colour per vehicle
+    assert renderer.axes.get_xlabel() and renderer.axes.get_ylabel()
+    # the arrows point along each airplane's heading
+    states = env.unwrapped.vehicle_states
+    heading = states[:, list(env.unwrapped.vehicle.state_names).index("heading")]
+    arrows = np.stack([renderer.arrows.U, renderer.arrows.V], axis=1)
+    np.testing.assert_allclose(
+        np.arctan2(arrows[:, 1], arrows[:, 0]), np.angle(np.exp(1j * heading))
+    )
+    title = renderer.title_artist.get_text()
+    assert "t = 1" in title
+    assert f"{infos['vehicle_0']['posterior_mass']:.2f}" in title
+    env.close()
+
+
+def test_inset_appears_exactly_when_the_belief_has_collapsed() -> None:
+    env = infoseek.envs.make("bearings_v0", n_agents=1, **SMALL)
+    renderer = SearchRenderer(env.unwrapped.space)
+    rng = np.random.default_rng(2)
+    particles, weights = _uniform_particles(rng)
+    _draw(renderer, particles, weights, trails=None, step=0, radius=1.0)
+    assert renderer.inset is None or not renderer.inset.get_visible()
+    # 95 % of the weight within 1 unit of (10, 30), 5 % spread: collapsed
+    tight = np.concatenate([rng.normal([10.0, 30.0], 0.3, size=(475, 2)), particles[:25]])
+    tight_weights = np.full(500, 1.0 / 500)
+    _draw(renderer, tight, tight_weights, trails=None, step=1, radius=1.0)
+    assert renderer.inset is not None and renderer.inset.get_visible()
+    x0, x1 = renderer.inset.get_xlim()
+    assert x0 < 10.0 < x1 and x1 - x0 < 40.0 / 8.0
+    # back to a spread belief: the inset hides again
+    _draw(renderer, particles, weights, trails=None, step=2, radius=1.0)
+    assert not renderer.inset.get_visible()
+    renderer.close()
+    env.close()
+
+
+def test_interrupted_demo_writes_the_frames_so_far_and_exits_130(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    real_make_policy = demo.make_policy
+
+    def interrupting_policy(*args: Any, **kwargs: Any) -> Any:
+        policy = real_make_policy(*args, **kwargs)
+        calls = {"n": 0}
+        act = policy.act
+
+        def act_then_interrupt(observations: Any, infos: Any) -> Any:
+            calls["n"] += 1
+            if calls["n"] == 3:
+                raise KeyboardInterrupt
+            return act(observations, infos)
+
+        policy.act = act_then_interrupt
+        return policy
+
+    monkeypatch.setattr(demo, "make_policy", interrupting_policy)
+    code = main(["demo", "--steps", "10", "--particles", "200", "--out", str(tmp_path)])
+    assert code == 130
+    assert "interrupted after 2 step(s)" in capsys.readouterr().out
+    (gif,) = tmp_path.glob("*.gif")
+    with Image.open(gif) as image:
+        assert image.n_frames == 3  # the reset frame and the two completed steps
+    assert len(list(tmp_path.glob("*.png"))) == 1
+    assert not list(tmp_path.glob(".*.tmp"))
+
+
+def test_demo_progress_bar_shows_the_time_left(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code = main(["demo", "--steps", "2", "--particles", "200", "--out", str(tmp_path)])
+    assert code == 0
+    assert "demo" not in capsys.readouterr().err  # no bar off a terminal
+    monkeypatch.setattr("sys.stderr.isatty", lambda: True, raising=False)
+    bar = demo.trial_progress_bar(5, "demo", True, unit="step")
+    bar.update(1)
+    text = str(bar)
+    bar.close()
+    assert "1/5" in text and "step" in text and "<" in text  # elapsed<remaining: the ETA
