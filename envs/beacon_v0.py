@@ -50,7 +50,8 @@ acceleration ``env.unwrapped.discrete_controls[k]`` (a ``n x n`` grid of evenly 
 per axis, ``ay`` varying fastest).
 
 **Reward.** Per agent and step: the entropy reduction ``H_{t-1} - H_t`` of its own belief
-(histogram estimate of eq. 6 on 40 x 40 x 16 cells, nats; ``infos[agent]["entropy"]``), minus
+(histogram estimate of eq. 6 on a grid adapted to the particles, nats; ``log(1600 * 2 pi) =
+9.22`` at the uniform prior for any particle count; ``infos[agent]["entropy"]``), minus
 ``separation_penalty`` (1.0) per other vehicle closer than ``min_separation`` (1.0 unit, eq. 2).
 
 **Termination / truncation.** Truncation after ``max_cycles`` steps (default 40). With
@@ -102,8 +103,8 @@ infoseek.envs.beacon_v0.parallel_env(
 * `min_separation` (1.0 unit): d-bar of eq. 2 (>= 0).
 * `action_type` ("continuous" | "discrete"), `n_discrete_actions` (5 per axis, >= 2).
 * `separation_penalty` (1.0 per violated pair per step, >= 0).
-* `resample_threshold` (1.0), `roughening` (0.2), `entropy_bins` (None: 40 x 40 x 16):
-  belief options.
+* `resample_threshold` (1.0), `roughening` (0.2), `entropy_bins` (None: the adaptive
+  grid of :mod:`infoseek.envs.entropy`; a triple: a fixed grid): belief options.
 * `tempering_ess` (0.0: off): the beliefs' progressive correction (see
   :mod:`infoseek.envs.belief`). Off for this version: its Metropolis moves treat the prior as
   locally flat, which is exact only for the uniform prior; with a concentrated belief they

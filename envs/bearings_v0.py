@@ -44,7 +44,9 @@ flat index `ix * 8 + iy` (x index slowest).
 ``+max_turn_rate``).
 
 **Reward.** Per agent and step: the entropy reduction of its own belief,
-``H_{t-1} - H_t`` (histogram estimate of eq. 6, in nats; reported as ``infos[agent]["entropy"]``),
+``H_{t-1} - H_t`` (histogram estimate of eq. 6 on a grid adapted to the particles, in nats; it
+reads ``log(1600) = 7.38`` at the uniform prior for any particle count; reported as
+``infos[agent]["entropy"]``),
 minus ``separation_penalty`` (default 1.0) per other vehicle closer than ``min_separation``
 (eq. 2; default 1.0 unit).
 
@@ -99,7 +101,8 @@ infoseek.envs.bearings_v0.parallel_env(
 * `action_type` ("continuous" | "discrete"), `n_discrete_actions` (5, >= 2).
 * `separation_penalty` (1.0 reward units per violated pair per step, >= 0).
 * `resample_threshold` (1.0: resample after every informative update, as the paper; 0: never),
-  `roughening` (0.2; 0 disables), `entropy_bins` (None: 40 x 40 cells): belief options.
+  `roughening` (0.2; 0 disables), `entropy_bins` (None: the adaptive grid of
+  :mod:`infoseek.envs.entropy`; a pair: a fixed grid): belief options.
 * `tempering_ess` (0.1; 0 disables): progressive correction of updates that would leave fewer
   than 10% effective particles (see :mod:`infoseek.envs.belief`).
 * `filter_max_snr` (None): filter noise floor for sensors that support it (the beacon; see

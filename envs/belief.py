@@ -80,12 +80,11 @@ Estimates:
   ``[0, 2 pi)``); for axial angles the axial mean ``arg(sum_k w_k e^{2 i phi_k}) / 2``.
 * Posterior mass within a radius (the metric of Fig. 1): ``sum_k w_k [||p_k - c|| <= r]`` over
   the position coordinates ``p_k``, ``c`` the MMSE position by default.
-* Entropy (eq. 6): the differential entropy of the piecewise-constant (histogram) density on a
-  fixed grid of ``B = prod_j b_j`` equal cells over the whole domain ``Theta``,
-  ``H = -sum_c P_c log(P_c / V_c)`` with ``P_c`` the particle mass in cell ``c`` and
-  ``V_c = vol(Theta) / B`` its volume. A uniform belief over a 40 x 40 box gives
-  ``log(1600)``; a belief inside a single cell gives ``log(V_c)`` (the estimator's floor). The
-  grid is fixed so values are comparable across time steps and agents.
+* Entropy (eq. 6): the differential entropy of a histogram density of the particles
+  (:mod:`infoseek.envs.entropy`): by default on a grid adapted to the particles (a fixed number of
+  effective particles per cell, Miller-Madow corrected), which reads ``log(vol(Theta))`` at the
+  uniform prior whatever the particle count and follows the belief as it collapses; with
+  ``entropy_bins`` on a fixed grid over the whole domain.
 """
 
 from __future__ import annotations
@@ -98,6 +97,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from infoseek.envs.entropy import adaptive_histogram_entropy, fixed_grid_entropy
 from infoseek.envs.resampling import systematic_resample
 from infoseek.envs.targets import (
     StationaryTarget,
@@ -237,8 +237,9 @@ class ParticleBelief:
         resample_threshold: Resample when ``ESS < resample_threshold * N``; 1.0 resamples after
             every update that makes the weights non-uniform (the paper), 0 never.
         roughening: Roughening constant ``K``; jitter std ``K * E_j * N^(-1/d)``. 0 disables.
-        entropy_bins: Cells per coordinate of the fixed entropy grid; default 40 per position
-            coordinate and 16 per angle coordinate.
+        entropy_bins: Cells per coordinate of a fixed entropy grid over the whole domain
+            (``None``, the default: the adaptive grid of
+            :func:`~infoseek.envs.entropy.adaptive_histogram_entropy`).
         recovery_fraction: Fraction of particles replaced by prior samples on degeneracy, in
             ``(0, 1]``.
         tempering_ess: Progressive-correction floor in ``[0, 1)``: an update that would make the
@@ -310,9 +311,8 @@ class ParticleBelief:
             raise ValueError(
                 f"max_tempering_stages must be an integer >= 1, got {max_tempering_stages!r}"
             )
-        if entropy_bins is None:
-            bins = tuple(16 if per else 40 for per in space.periodic)
-        else:
+        bins: tuple[int, ...] | None = None
+        if entropy_bins is not None:
             bins = tuple(entropy_bins)
             if len(bins) != space.dim or not all(
                 isinstance(b, int | np.integer) and not isinstance(b, bool) and b >= 1 for b in bins
@@ -415,8 +415,8 @@ class ParticleBelief:
         return self._motion
 
     @property
-    def entropy_bins(self) -> tuple[int, ...]:
-        """Cells per coordinate of the fixed entropy grid."""
+    def entropy_bins(self) -> tuple[int, ...] | None:
+        """Cells per coordinate of the fixed entropy grid (``None``: adaptive grid)."""
         return self._entropy_bins
 
     @property
@@ -773,21 +773,14 @@ class ParticleBelief:
         return cell @ strides
 
     def entropy(self) -> float:
-        """Histogram estimate of the differential entropy (eq. 6) on the fixed grid.
+        """Histogram estimate of the differential entropy (eq. 6), in nats.
 
-        ``H = -sum_c P_c log(P_c / V_c)`` over the ``prod(entropy_bins)`` equal cells of the
-        domain (see the module docstring). A uniform belief gives ``log(vol(Theta))``.
-
-        Returns:
-            Entropy in nats (between ``log(V_c)`` and ``log(vol(Theta))``).
+        On the adaptive grid (default) or on the fixed ``entropy_bins`` grid; see
+        :mod:`infoseek.envs.entropy`.
         """
-        bins = self._entropy_bins
-        flat = self._cell_index(tuple(range(self.dim)), bins)
-        mass = np.bincount(flat, weights=self._weights, minlength=int(np.prod(bins)))
-        mass = mass[mass > 0]
-        mass = mass / mass.sum()
-        log_cell_volume = math.log(self._space.volume) - math.log(float(np.prod(bins)))
-        return float(-np.dot(mass, np.log(mass)) + log_cell_volume)
+        if self._entropy_bins is None:
+            return adaptive_histogram_entropy(self._particles, self._weights, self._space)
+        return fixed_grid_entropy(self._particles, self._weights, self._space, self._entropy_bins)
 
     def mass_grid(self, shape: tuple[int, int] = (8, 8)) -> FloatArray:
         """Posterior position mass on a coarse ``gx x gy`` grid over the position box.

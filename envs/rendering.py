@@ -9,8 +9,8 @@ One frame shows, over the search domain box:
 * every vehicle's trail in its own colour (waypoints joined by a thin line), its current
   position and an arrow along its heading (airplanes) or velocity (quadrotors);
 * the belief's MMSE estimate (black X) and the true target position (red square);
-* a legend (below the axes), axis labels, and a title with the step and the belief's posterior mass within the
-  localisation radius of its estimate;
+* a legend (below the axes), axis labels, and a title with the step and the belief's
+  posterior mass within the localisation radius of its estimate;
 * once the belief has collapsed (90 % of its weight inside a box smaller than an eighth of the
   domain), an inset that zooms on it, with the estimate, the truth and the localisation radius.
 

@@ -65,9 +65,10 @@ Reward of agent ``i`` at step ``t``:
     r^{(i)}_t = H(\theta^{(i)}_{t-1}) - H(\theta^{(i)}_t)
                 - c \, \#\{j \ne i : \|x^{(i)}_t - x^{(j)}_t\| < \bar d\},
 
-the reduction of the (histogram-estimated) entropy of its own belief over the step minus
-``c = separation_penalty`` times the number of separation violations involving ``i``. Summed
-over an episode, the information part telescopes to :math:`H_0 - H_T` (conservation).
+the reduction of the (histogram-estimated, :mod:`infoseek.envs.entropy`) entropy of its own
+belief over the step minus ``c = separation_penalty`` times the number of separation
+violations involving ``i``. Summed over an episode, the information part telescopes to
+:math:`H_0 - H_T` (conservation).
 
 Randomness: ``reset(seed)`` builds ``numpy.random.SeedSequence(seed)`` and spawns independent
 streams, in this order: target (prior draw and motion), observation noise, message loss,

@@ -346,14 +346,19 @@ def test_threshold_zero_never_resamples() -> None:
 # --------------------------------------------------------------------------- estimates
 def test_entropy_of_uniform_belief_is_log_area() -> None:
     pts, _ = grid_points(80)
-    belief = ParticleBelief(pts, PLANAR, np.random.default_rng(0))
+    belief = ParticleBelief(pts, PLANAR, np.random.default_rng(0), entropy_bins=(40, 40))
     assert belief.entropy() == pytest.approx(np.log(1600.0), abs=1e-9)
+    # the adaptive default: the lattice's box is 39.5 x 39.5 and Miller-Madow adds 0.06
+    lattice = ParticleBelief(pts, PLANAR, np.random.default_rng(0))
+    assert lattice.entropy() == pytest.approx(np.log(1600.0), rel=0.005)
     big = ParticleBelief.from_prior(PLANAR, 400_000, np.random.default_rng(1))
     assert big.entropy() == pytest.approx(np.log(1600.0), abs=0.01)
     oriented = ParticleBelief.from_prior(ORIENTED, 400_000, np.random.default_rng(2))
     assert oriented.entropy() == pytest.approx(np.log(1600.0 * 2 * np.pi), abs=0.05)
-    # all mass in one cell: H = log(cell volume) = log(1)
-    point = ParticleBelief(np.full((10, 2), 3.3), PLANAR, np.random.default_rng(0))
+    # all mass in one cell of a fixed grid: H = log(cell volume) = log(1)
+    point = ParticleBelief(
+        np.full((10, 2), 3.3), PLANAR, np.random.default_rng(0), entropy_bins=(40, 40)
+    )
     assert point.entropy() == pytest.approx(0.0, abs=1e-12)
     # half the box: log(800); custom grid
     left = pts[pts[:, 0] < 20]

@@ -1,0 +1,147 @@
+"""Differential entropy (eq. 6) of a weighted particle set.
+
+Both estimators below return the differential entropy, in nats, of a piecewise-constant
+(histogram) density built from the particles,
+
+    H = -sum_c P_c log(P_c / V_c),
+
+``P_c`` the particle weight in cell ``c`` and ``V_c`` its volume. They differ in the grid.
+
+**Adaptive grid** (:func:`adaptive_histogram_entropy`, the default of every belief). The plug-in
+histogram on a fixed grid is biased low by about ``(B - 1) / (2 N)`` nats when ``N`` particles
+fall in ``B`` cells, and by far more once ``N < B`` (a uniform belief of 2000 particles over
+40 x 40 x 16 cells reads 6.6 nats, not ``log(vol) = 9.22``), so its value depends on the
+particle count. The adaptive grid fixes the *number of particles per cell* instead:
+
+1. Coordinates are scaled to ``[0, 1)`` by the domain widths (the log-widths are added back).
+   A periodic coordinate is unrolled at the largest gap between the particles' angles, so a
+   belief concentrated across the wrap point stays contiguous.
+2. The grid covers the box between the weighted ``TAIL`` and ``1 - TAIL`` quantiles of every
+   coordinate (side at least ``BOX_FLOOR`` of the domain width; particles outside it count
+   in the edge cells), so the cells shrink with the belief.
+3. The box is cut into ``B ~= ESS / PARTICLES_PER_CELL`` cells, as close to cubes (in scaled
+   units) as whole numbers allow; ``ESS = 1 / sum_k w_k^2``.
+4. The plug-in value gets the Miller-Madow correction ``+ (m - 1) / (2 ESS)``, ``m`` the
+   occupied cells (Miller 1955; the first-order bias of the plug-in entropy).
+
+At the uniform prior this is within 0.3 % of ``log(vol(Theta))`` for 500 to 10,000 particles on
+both environments' domains (test ``test_entropy_at_the_uniform_prior_is_the_log_volume``), and
+it follows a collapsing belief down to the spread floor (a Gaussian belief of std 0.3 reads its
+closed-form entropy ``log(2 pi e sigma^2)`` within 0.05 nats). Cost: one sort per coordinate and
+one ``bincount``.
+
+**Fixed grid** (:func:`fixed_grid_entropy`, when a belief is given ``entropy_bins``): ``B`` equal
+cells over the whole domain, plug-in. Values are comparable across beliefs with the same grid,
+a uniform belief gives ``log(vol(Theta))`` only when ``N >> B``, and a belief inside one cell
+reads ``log(V_c)``, the estimator's floor.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from infoseek.envs.targets import TargetSpace
+
+FloatArray = NDArray[np.float64]
+
+__all__ = [
+    "BOX_FLOOR",
+    "PARTICLES_PER_CELL",
+    "TAIL",
+    "adaptive_histogram_entropy",
+    "fixed_grid_entropy",
+]
+
+#: Effective particles per cell of the adaptive grid.
+PARTICLES_PER_CELL = 8.0
+#: Weight left out on each side of every coordinate when the adaptive box is placed.
+TAIL = 1e-3
+#: Smallest side of the adaptive box, as a fraction of the coordinate's domain width.
+BOX_FLOOR = 1e-3
+
+
+def _cell_entropy(
+    scaled: FloatArray, weights: FloatArray, low: FloatArray, side: FloatArray, bins: NDArray
+) -> tuple[float, int]:
+    """Plug-in ``-sum P_c log P_c`` over the grid of ``bins`` cells on the box
+    ``[low, low + side]`` (points outside count in the edge cells), and the occupied cells."""
+    cell = np.floor((scaled - low) * (bins / side)).astype(np.int64)
+    np.clip(cell, 0, bins - 1, out=cell)
+    strides = np.cumprod(np.concatenate([bins[1:], [1]])[::-1])[::-1]
+    mass = np.bincount(cell @ strides, weights=weights, minlength=int(np.prod(bins)))
+    mass = mass[mass > 0]
+    mass = mass / mass.sum()
+    return float(-np.dot(mass, np.log(mass))), int(mass.size)
+
+
+def _unroll_periodic(column: FloatArray) -> FloatArray:
+    """Angles in ``[0, 1)`` shifted so that the largest gap between them is at the wrap."""
+    ordered = np.sort(column)
+    gaps = np.diff(np.concatenate([ordered, ordered[:1] + 1.0]))
+    start = ordered[(int(np.argmax(gaps)) + 1) % ordered.size]
+    return np.mod(column - start, 1.0)
+
+
+def _weighted_quantiles(scaled: FloatArray, weights: FloatArray, q: float) -> FloatArray:
+    """``(d,)`` weighted ``q``-quantile of every column of ``scaled``."""
+    order = np.argsort(scaled, axis=0, kind="stable")
+    cumulative = np.cumsum(weights[order], axis=0)
+    index = np.minimum(np.argmax(cumulative >= q * cumulative[-1], axis=0), scaled.shape[0] - 1)
+    return np.take_along_axis(scaled, order, axis=0)[index, np.arange(scaled.shape[1])]
+
+
+def adaptive_histogram_entropy(
+    particles: FloatArray, weights: FloatArray, space: TargetSpace
+) -> float:
+    """Differential entropy on a grid adapted to the particles (module docstring).
+
+    Args:
+        particles: ``(N, d)`` particles inside ``space``.
+        weights: ``(N,)`` normalised weights.
+        space: The target space (domain widths, periodic coordinates).
+
+    Returns:
+        Entropy in nats (finite; at least about
+        ``log(vol(Theta)) + d log(BOX_FLOOR) - log(ESS / PARTICLES_PER_CELL)``).
+    """
+    low, high = space.low_array, space.high_array
+    width = high - low
+    scaled = (particles - low) / width
+    periodic = np.asarray(space.periodic, dtype=bool)
+    for j in np.flatnonzero(periodic):
+        scaled[:, j] = _unroll_periodic(np.mod(scaled[:, j], 1.0))
+    box_low = _weighted_quantiles(scaled, weights, TAIL)
+    side = np.maximum(_weighted_quantiles(scaled, weights, 1.0 - TAIL) - box_low, BOX_FLOOR)
+    ess = float(1.0 / np.dot(weights, weights))
+    n_cells = max(1.0, ess / PARTICLES_PER_CELL)
+    cube = (float(np.prod(side)) / n_cells) ** (1.0 / side.size)
+    bins = np.maximum(1, np.round(side / cube)).astype(np.int64)
+    plug_in, occupied = _cell_entropy(scaled, weights, box_low, side, bins)
+    log_cell_volume = float(np.sum(np.log(side / bins) + np.log(width)))
+    return plug_in + log_cell_volume + (occupied - 1) / (2.0 * ess)
+
+
+def fixed_grid_entropy(
+    particles: FloatArray, weights: FloatArray, space: TargetSpace, bins: tuple[int, ...]
+) -> float:
+    """Plug-in differential entropy on ``prod(bins)`` equal cells over the whole domain.
+
+    Args:
+        particles: ``(N, d)`` particles inside ``space``.
+        weights: ``(N,)`` normalised weights.
+        space: The target space.
+        bins: Cells per coordinate.
+
+    Returns:
+        Entropy in nats (between ``log(V_c)`` and ``log(vol(Theta))``).
+    """
+    low = space.low_array
+    width = space.high_array - low
+    grid = np.asarray(bins, dtype=np.int64)
+    plug_in, _ = _cell_entropy(
+        (particles - low) / width, weights, np.zeros(grid.size), np.ones(grid.size), grid
+    )
+    return plug_in + math.log(space.volume) - math.log(float(np.prod(grid)))
