@@ -9,10 +9,11 @@ in ``[0, 1]`` and the MMSE estimate in domain units. Raw positions of order 40 s
 
 with constants fixed by the environment's a-priori geometry (:func:`observation_scaling`):
 
-* finite bounds ``[lo_j, hi_j]``: ``offset_j = (lo_j + hi_j) / 2``, ``scale_j = (hi_j - lo_j) / 2``
-  (so the box maps to ``[-1, 1]``);
-* own planar position (unbounded): centre and half-size of the domain, per axis;
-* relative positions of the other agents (unbounded): offset 0, half-size of the domain;
+* own planar position: centre and half-size of the domain, per axis (the observation bound is
+  the far larger reachable box, which would squash the domain to a small range);
+* relative positions of the other agents: offset 0, half-size of the domain;
+* other finite bounds ``[lo_j, hi_j]``: ``offset_j = (lo_j + hi_j) / 2``,
+  ``scale_j = (hi_j - lo_j) / 2`` (so the box maps to ``[-1, 1]``);
 * any other unbounded entry: offset 0, scale 1.
 
 Unlike a running normaliser (SB3's ``VecNormalize``) the constants do not change during training
@@ -88,13 +89,11 @@ def observation_scaling(env: Any) -> tuple[list[float], list[float]]:
     for axis, name in enumerate(("x", "y")):
         if name in state_names:
             j = own.start + state_names.index(name)
-            if not finite[j]:
-                offset[j], scale[j] = centre[axis], half[axis]
+            offset[j], scale[j] = centre[axis], half[axis]
     others = layout.get("others_relative_positions")
     if others is not None:
         for j in range(others.start, others.stop):
-            if not finite[j]:
-                offset[j], scale[j] = 0.0, half[(j - others.start) % 2]
+            offset[j], scale[j] = 0.0, half[(j - others.start) % 2]
     return offset.tolist(), scale.tolist()
 
 

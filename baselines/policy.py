@@ -102,6 +102,18 @@ def read_run_config(model_path: str | Path) -> dict[str, Any] | None:
         return json.load(handle)
 
 
+def _bounds_agree(space: Any, other: Any) -> bool:
+    """Equal Box bounds wherever both are finite (models saved before the observation bounds
+    became finite stored +-inf for positions)."""
+    for name in ("low", "high"):
+        a = np.asarray(getattr(space, name, 0.0), dtype=np.float64)
+        b = np.asarray(getattr(other, name, 0.0), dtype=np.float64)
+        both = np.isfinite(a) & np.isfinite(b)
+        if not np.array_equal(a[both], b[both]):
+            return False
+    return True
+
+
 def check_spaces(model: BaseAlgorithm, env: Any, where: str = "load_policy") -> None:
     """Raise ``ValueError`` unless every agent's spaces in ``env`` equal the model's.
 
@@ -113,9 +125,8 @@ def check_spaces(model: BaseAlgorithm, env: Any, where: str = "load_policy") -> 
     for agent in env.possible_agents:
         observation_space = env.observation_space(agent)
         action_space = env.action_space(agent)
-        if observation_space.shape != model.observation_space.shape or not np.array_equal(
-            np.asarray(getattr(observation_space, "low", 0)),
-            np.asarray(getattr(model.observation_space, "low", 0)),
+        if observation_space.shape != model.observation_space.shape or not _bounds_agree(
+            observation_space, model.observation_space
         ):
             raise ValueError(
                 f"{where}: observation space of {agent} {observation_space} does not match the "

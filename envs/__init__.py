@@ -6,8 +6,10 @@
 docstrings are the manuals. Everything else is imported lazily on first attribute access, so
 ``import infoseek.envs.sensors`` does not import PettingZoo.
 
-Importing the package also tunes the C heap so that NumPy temporaries reuse freed pages
-(:mod:`infoseek.envs.heap`; opt out with ``INFOSEEK_HEAP_TUNING=0``).
+Importing the package registers the single-agent forms with Gymnasium
+(``gymnasium.make("infoseek/Bearings-v0")``, :mod:`infoseek.envs.single_agent`) and tunes the C
+heap so that NumPy temporaries reuse freed pages (:mod:`infoseek.envs.heap`; opt out with
+``INFOSEEK_HEAP_TUNING=0``).
 """
 
 from __future__ import annotations
@@ -17,6 +19,9 @@ from typing import Any
 
 from infoseek.envs import heap as _heap  # noqa: F401  (tunes the heap once, on import)
 from infoseek.envs.registration import EnvSpec, make, register, registry
+from infoseek.envs.single_agent import register_with_gymnasium as _register_with_gymnasium
+
+_register_with_gymnasium()
 
 __all__ = [
     "EnvSpec",

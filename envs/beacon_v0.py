@@ -33,11 +33,14 @@ documented noise floor to the (extremely sharp) near-field likelihood (`filter_m
 | Slice name                  | Size             | Content                        | Bounds |
 |-----------------------------|------------------|--------------------------------|--------|
 | `own_state`                 | 4                | own `(x, y, vx, vy)`           | (1)    |
-| `others_relative_positions` | `2 (n_agents-1)` | `x_j - x_i` for j != i, by index | unbounded |
+| `others_relative_positions` | `2 (n_agents-1)` | `x_j - x_i` for j != i, by index | (R) |
 | `belief_grid`               | 64               | own belief's mass on 8 x 8 cells (2) | `[0, 1]` |
 | `mmse_estimate`             | 3                | own MMSE estimate `(x, y, psi)` (3) | (4) |
 
-(1) x, y unbounded; vx, vy in `[-max_speed, max_speed]`.
+(1) x, y within the reachable box: the domain and the start positions grown on every side by
+`max_speed * dt * max_cycles`; vx, vy in `[-max_speed, max_speed]`. (R) within plus or minus
+the reachable box's width and height. Every bound is finite (:mod:`infoseek.envs.spaces`);
+reassigning `max_cycles` rebuilds the spaces.
 (2) position mass of each cell of a regular 8 x 8 grid over the domain, cell `[ix, iy]` at
 flat index `ix * 8 + iy` (x index slowest).
 (3) eq. 12, with the axial mean for `psi` (reported in `[0, pi)`).
@@ -59,10 +62,19 @@ per axis, ``ay`` varying fastest).
 at least ``localization_mass`` (0.9) of its position mass within ``localization_radius``
 (1.0 unit) of its own MMSE position.
 
-**Infos** (``infos[agent]``, also after ``reset``): ``"belief"``, ``"vehicle_states"``
-(read-only ``(A, 4)``), ``"agent_index"``, ``"belief_recovered"``, ``"ess"``, ``"entropy"``,
-``"posterior_mass"``, ``"separation_violations"``. The true beacon state is only available
-through ``env.unwrapped.true_target()``.
+**Infos** (``infos[agent]``, the same keys after ``reset`` and every ``step``; numbers and numpy
+arrays only): ``"vehicle_states"`` (read-only ``(A, 4)``), ``"agent_index"``,
+``"belief_recovered"``, ``"ess"``, ``"entropy"``, ``"posterior_mass"``,
+``"separation_violations"``; with ``belief_in_infos=True`` also ``"belief"`` (the BeliefView the
+planners read). ``env.unwrapped.belief(agent)`` returns it either way. The true beacon state is
+only available through ``env.unwrapped.true_target()``.
+
+**Centralised state.** ``env.state()`` (float32, in ``env.state_space``; slices in
+``env.state_layout``): every vehicle's state, every agent's belief grid, MMSE estimate and
+posterior mass (what a centralised critic such as MAPPO's should see; never the true target).
+Layout and bounds: :mod:`infoseek.envs.spaces`. ``state()`` before ``reset()`` raises
+``RuntimeError``.
+
 
 ### Arguments
 
@@ -77,7 +89,7 @@ infoseek.envs.beacon_v0.parallel_env(
     resample_threshold=1.0, roughening=0.2, tempering_ess=0.0, filter_max_snr=5.0,
     entropy_bins=None, belief_grid=(8, 8),
     localization_radius=1.0, localization_mass=0.9, terminate_on_localization=False,
-    comm_range=inf, message_loss=0.0, render_mode=None,
+    comm_range=inf, message_loss=0.0, belief_in_infos=False, render_mode=None,
 )
 ```
 
@@ -122,6 +134,7 @@ infoseek.envs.beacon_v0.parallel_env(
   `terminate_on_localization` (False).
 * `comm_range` (inf units), `message_loss` (0.0): communication model; an agent always
   receives its own observation.
+* `belief_in_infos` (False): also put each agent's BeliefView in its infos (for the planners).
 * `render_mode` (None | "rgb_array" | "human"): agent 0's particles as short lines along their
   orientation, darker for heavier weights (as Fig. 2), the vehicle trails, the MMSE estimate
   (X) and the true beacon (square).

@@ -29,11 +29,14 @@ trained; the slices are in ``env.observation_layout``):
 | Slice name                  | Size             | Content                        | Bounds |
 |-----------------------------|------------------|--------------------------------|--------|
 | `own_state`                 | 3                | own `(x, y, heading)`          | (1)    |
-| `others_relative_positions` | `2 (n_agents-1)` | `x_j - x_i` for j != i, by index | unbounded |
+| `others_relative_positions` | `2 (n_agents-1)` | `x_j - x_i` for j != i, by index | (R) |
 | `belief_grid`               | 64               | own belief's mass on 8 x 8 cells (2) | `[0, 1]` |
 | `mmse_estimate`             | 2                | own MMSE estimate `(x, y)` (eq. 12) | `[0, 40]` |
 
-(1) x, y unbounded (airplanes may leave the domain); heading in `[-pi, pi]`.
+(1) x, y within the reachable box: the domain and the start positions grown on every side by
+`speed * dt * max_cycles` (airplanes may leave the domain, but not that box); heading in
+`[-pi, pi]`. (R) within plus or minus the reachable box's width and height. Every bound is
+finite (:mod:`infoseek.envs.spaces`); reassigning `max_cycles` rebuilds the spaces.
 (2) position mass of each cell of a regular 8 x 8 grid over the domain, cell `[ix, iy]` at
 flat index `ix * 8 + iy` (x index slowest).
 
@@ -55,10 +58,20 @@ minus ``separation_penalty`` (default 1.0) per other vehicle closer than ``min_s
 at least ``localization_mass`` (0.9) of its mass within ``localization_radius`` (1.0 unit) of its
 own MMSE estimate.
 
-**Infos** (``infos[agent]``, also after ``reset``): ``"belief"`` (BeliefView of the agent's own
-belief), ``"vehicle_states"`` (read-only ``(A, 3)``), ``"agent_index"``, ``"belief_recovered"``,
-``"ess"``, ``"entropy"``, ``"posterior_mass"``, ``"separation_violations"``. The true target is
-only available through ``env.unwrapped.true_target()``.
+**Infos** (``infos[agent]``, the same keys after ``reset`` and every ``step``; numbers and numpy
+arrays only, so RL frameworks batch them as they are): ``"vehicle_states"`` (read-only
+``(A, 3)``), ``"agent_index"``, ``"belief_recovered"``, ``"ess"``, ``"entropy"``,
+``"posterior_mass"``, ``"separation_violations"``; with ``belief_in_infos=True`` also
+``"belief"`` (the BeliefView the scripted planners read). ``env.unwrapped.belief(agent)`` returns
+an agent's BeliefView either way (``ValueError`` for an unknown agent, ``RuntimeError`` before
+``reset``). The true target is only available through ``env.unwrapped.true_target()``.
+
+**Centralised state.** ``env.state()`` (float32, in ``env.state_space``; slices in
+``env.state_layout``): every vehicle's state, every agent's belief grid, MMSE estimate and
+posterior mass (what a centralised critic such as MAPPO's should see; never the true target).
+Layout and bounds: :mod:`infoseek.envs.spaces`. ``state()`` before ``reset()`` raises
+``RuntimeError``.
+
 
 ### Arguments
 
@@ -72,7 +85,7 @@ infoseek.envs.bearings_v0.parallel_env(
     resample_threshold=1.0, roughening=0.2, tempering_ess=0.1, filter_max_snr=None,
     entropy_bins=None, belief_grid=(8, 8),
     localization_radius=1.0, localization_mass=0.9, terminate_on_localization=False,
-    comm_range=inf, message_loss=0.0, render_mode=None,
+    comm_range=inf, message_loss=0.0, belief_in_infos=False, render_mode=None,
 )
 ```
 
@@ -113,6 +126,7 @@ infoseek.envs.bearings_v0.parallel_env(
 * `comm_range` (inf units): observations are shared only between vehicles at most this far
   apart; `message_loss` (0.0): probability that each message is lost. An agent always
   receives its own observation.
+* `belief_in_infos` (False): also put each agent's BeliefView in its infos (for the planners).
 * `render_mode` (None | "rgb_array" | "human"): draws agent 0's particles shaded by weight, the
   vehicle trails, the MMSE estimate (X) and the true target (square).
 

@@ -90,9 +90,10 @@ import numpy as np
 from numpy.typing import NDArray
 from pettingzoo import ParallelEnv
 
-from infoseek.envs.belief import ParticleBelief
+from infoseek.envs.belief import BeliefView, ParticleBelief
 from infoseek.envs.sensors import make_sensor
 from infoseek.envs.sensors.base import Sensor
+from infoseek.envs.spaces import observation_layout, position_box, state_layout
 from infoseek.envs.targets import TargetMotion, TargetSpace, make_target_motion
 from infoseek.envs.vehicles import make_vehicle
 from infoseek.envs.vehicles.base import Vehicle
@@ -106,9 +107,9 @@ ACTION_TYPES = ("continuous", "discrete")
 #: and localisation metrics of a belief of a handful of particles are meaningless.
 MIN_PARTICLES = 100
 RENDER_MODES = (None, "rgb_array", "human")
-ANGLE_STATE_NAMES = ("heading", "psi", "yaw")
+#: Keys of ``infos[agent]`` (at ``reset`` and at every ``step``); with ``belief_in_infos=True``
+#: also ``"belief"``.
 INFO_KEYS = (
-    "belief",
     "vehicle_states",
     "agent_index",
     "belief_recovered",
@@ -252,6 +253,10 @@ class InformationSeekingEnv(ParallelEnv):
             localised (``posterior_mass >= localization_mass``).
         comm_range: Distance up to which observations are shared (>= 0, ``inf`` = everywhere).
         message_loss: Probability in ``[0, 1]`` that a message between two agents is lost.
+        belief_in_infos: Also put each agent's :class:`BeliefView` in ``infos[agent]["belief"]``
+            (what the scripted planners read). Off by default, so that infos hold only numbers
+            and numpy arrays (what RL frameworks can batch); :meth:`belief` returns the view
+            either way.
         render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
         name: Environment name reported in ``metadata["name"]``.
     """
@@ -296,6 +301,7 @@ class InformationSeekingEnv(ParallelEnv):
         terminate_on_localization: bool = False,
         comm_range: float = math.inf,
         message_loss: float = 0.0,
+        belief_in_infos: bool = False,
         render_mode: str | None = None,
         name: str = "information_seeking",
         **unknown: Any,
@@ -324,7 +330,7 @@ class InformationSeekingEnv(ParallelEnv):
         # ---- scalars
         self.n_agents = _check_int(n_agents, "n_agents", 1)
         self.n_particles = _check_int(n_particles, "n_particles", MIN_PARTICLES)
-        self.max_cycles = _check_int(max_cycles, "max_cycles", 1)
+        self._max_cycles = _check_int(max_cycles, "max_cycles", 1)
         self.dt = _check_float(dt, "dt", low=0.0, low_open=True)
         self.min_separation = _check_float(min_separation, "min_separation", low=0.0)
         self.separation_penalty = _check_float(separation_penalty, "separation_penalty", low=0.0)
@@ -376,6 +382,9 @@ class InformationSeekingEnv(ParallelEnv):
         if render_mode not in RENDER_MODES:
             raise ValueError(f"render_mode must be one of {RENDER_MODES}, got {render_mode!r}")
         self.render_mode = render_mode
+        if not isinstance(belief_in_infos, bool | np.bool_):
+            raise TypeError(f"belief_in_infos must be True or False, got {belief_in_infos!r}")
+        self.belief_in_infos = bool(belief_in_infos)
         self.metadata = {**type(self).metadata, "name": str(name)}
 
         # ---- agents and start positions
@@ -420,20 +429,15 @@ class InformationSeekingEnv(ParallelEnv):
                 for agent in self.possible_agents
             }
 
-        # ---- observations
-        self.observation_layout, obs_low, obs_high = self._build_observation_layout()
-        self._obs_low = obs_low.astype(np.float32)
-        self._obs_high = obs_high.astype(np.float32)
-        self._observation_spaces = {
-            agent: gymnasium.spaces.Box(low=self._obs_low, high=self._obs_high, dtype=np.float32)
-            for agent in self.possible_agents
-        }
+        # ---- observations and centralised state
+        self._build_spaces()
 
         # ---- episode state (filled by reset)
         self._seed_sequence: np.random.SeedSequence | None = None
         self._target: FloatArray | None = None
         self._states: FloatArray | None = None
         self._beliefs: list[ParticleBelief] = []
+        self._state: ObsArray | None = None
         self._entropies = np.zeros(self.n_agents)
         self._cycles = 0
         self.last_measurements: FloatArray | None = None
@@ -530,38 +534,49 @@ class InformationSeekingEnv(ParallelEnv):
             )
         return positions
 
-    def _build_observation_layout(self) -> tuple[dict[str, slice], FloatArray, FloatArray]:
-        vehicle = self.vehicle
-        state_low = np.full(vehicle.state_dim, -np.inf)
-        state_high = np.full(vehicle.state_dim, np.inf)
-        for k, state_name in enumerate(vehicle.state_names):
-            if state_name in ANGLE_STATE_NAMES:
-                state_low[k], state_high[k] = -np.pi, np.pi
-            elif state_name in ("vx", "vy") and hasattr(vehicle, "max_speed"):
-                state_low[k], state_high[k] = -vehicle.max_speed, vehicle.max_speed
-        n_grid = self.belief_grid[0] * self.belief_grid[1]
-        blocks = [
-            ("own_state", state_low, state_high),
-            (
-                "others_relative_positions",
-                np.full(2 * (self.n_agents - 1), -np.inf),
-                np.full(2 * (self.n_agents - 1), np.inf),
-            ),
-            ("belief_grid", np.zeros(n_grid), np.ones(n_grid)),
-            (
-                "mmse_estimate",
-                np.asarray(self.space.low, dtype=np.float64),
-                np.asarray(self.space.high, dtype=np.float64),
-            ),
-        ]
-        layout: dict[str, slice] = {}
-        start = 0
-        for block_name, lo, _ in blocks:
-            layout[block_name] = slice(start, start + len(lo))
-            start += len(lo)
-        low = np.concatenate([b[1] for b in blocks])
-        high = np.concatenate([b[2] for b in blocks])
-        return layout, low, high
+    def _build_spaces(self) -> None:
+        """Observation and state layouts with finite bounds (:mod:`infoseek.envs.spaces`)."""
+        max_speed = getattr(self.vehicle, "max_speed", None)
+        if isinstance(max_speed, bool) or not isinstance(max_speed, int | float | np.floating):
+            raise TypeError(
+                f"vehicle {self.vehicle!r} must have a numeric max_speed attribute (it bounds "
+                "the observed positions)"
+            )
+        box = position_box(
+            self.space, np.asarray(self.start_positions), float(max_speed), self.dt, self.max_cycles
+        )
+        geometry = (
+            self.vehicle.state_names,
+            float(max_speed),
+            box,
+            self.space,
+            self.n_agents,
+            self.belief_grid,
+        )
+        self.observation_layout, obs_low, obs_high = observation_layout(*geometry)
+        self._obs_low = obs_low.astype(np.float32)
+        self._obs_high = obs_high.astype(np.float32)
+        self._observation_spaces = {
+            agent: gymnasium.spaces.Box(low=self._obs_low, high=self._obs_high, dtype=np.float32)
+            for agent in self.possible_agents
+        }
+        self.state_layout, state_low, state_high = state_layout(*geometry)
+        self._state_low = state_low.astype(np.float32)
+        self._state_high = state_high.astype(np.float32)
+        self.state_space = gymnasium.spaces.Box(
+            low=self._state_low, high=self._state_high, dtype=np.float32
+        )
+
+    @property
+    def max_cycles(self) -> int:
+        """Steps before truncation. Reassigning it (between episodes) rebuilds the observation
+        and state spaces, whose position bounds grow with the episode length."""
+        return self._max_cycles
+
+    @max_cycles.setter
+    def max_cycles(self, value: int) -> None:
+        self._max_cycles = _check_int(value, "max_cycles", 1)
+        self._build_spaces()
 
     # ----------------------------------------------------------------------------- spaces
     @property
@@ -813,8 +828,16 @@ class InformationSeekingEnv(ParallelEnv):
         others = relative[~np.eye(n, dtype=bool)].reshape(n, 2 * (n - 1))
         grids = np.stack([b.mass_grid(self.belief_grid).ravel() for b in self._beliefs])
         estimates = np.stack([b.mmse() for b in self._beliefs])
+        masses = np.array(
+            [
+                b.mass_within(self.localization_radius, e)
+                for b, e in zip(self._beliefs, estimates, strict=True)
+            ]
+        )
         flat = np.concatenate([states, others, grids, estimates], axis=1).astype(np.float32)
         flat = np.clip(flat, self._obs_low, self._obs_high)  # float32 rounding at the bounds
+        state = np.concatenate([states.ravel(), grids.ravel(), estimates.ravel(), masses])
+        self._state = np.clip(state.astype(np.float32), self._state_low, self._state_high)
         vehicle_states = _readonly(states.copy())
         observations: dict[str, ObsArray] = {}
         infos: dict[str, dict[str, Any]] = {}
@@ -822,16 +845,29 @@ class InformationSeekingEnv(ParallelEnv):
             belief = self._beliefs[i]
             observations[agent] = flat[i].copy()
             infos[agent] = {
-                "belief": belief.view(),
                 "vehicle_states": vehicle_states,
                 "agent_index": i,
                 "belief_recovered": bool(self._recovered[i]),
                 "ess": float(belief.ess),
                 "entropy": float(self._entropies[i]),
-                "posterior_mass": float(belief.mass_within(self.localization_radius, estimates[i])),
+                "posterior_mass": float(masses[i]),
                 "separation_violations": int(self._violations[i]),
             }
+            if self.belief_in_infos:
+                infos[agent]["belief"] = belief.view()
         return observations, infos
+
+    def state(self) -> ObsArray:
+        """The centralised state (float32, ``state_space``; layout ``state_layout``): every
+        vehicle's state, every agent's belief grid, MMSE estimate and posterior mass; never the
+        true target (:mod:`infoseek.envs.spaces`).
+
+        Raises:
+            RuntimeError: Called before ``reset()``.
+        """
+        if self._state is None:
+            raise RuntimeError("state() called before reset(): call reset() first")
+        return self._state.copy()
 
     # ----------------------------------------------------------------------------- accessors
     def _current_states(self) -> FloatArray:
@@ -849,6 +885,18 @@ class InformationSeekingEnv(ParallelEnv):
         if self._target is None:
             raise RuntimeError("true_target() called before reset()")
         return self._target.copy()
+
+    def belief(self, agent: str) -> BeliefView:
+        """Read-only snapshot of ``agent``'s belief (what the scripted planners read).
+
+        Raises:
+            ValueError: ``agent`` is not one of ``possible_agents``.
+            RuntimeError: Called before ``reset()``.
+        """
+        index = self.agent_name_mapping[self._agent_index(agent, "belief")]
+        if not self._beliefs:
+            raise RuntimeError(f"belief({agent!r}) called before reset(): call reset() first")
+        return self._beliefs[index].view()
 
     def agent_belief(self, agent: str) -> ParticleBelief:
         """The live :class:`ParticleBelief` of ``agent`` (diagnostics; do not mutate)."""

@@ -144,12 +144,20 @@ def check_env_id(env: str) -> None:
 
 
 def make_env(env: str, **kwargs: Any) -> Any:
-    """Build environment ``env``: a registered id, or a ``"module:callable"`` factory."""
-    if ":" in env:
-        return _import_object(env, "--env")(**kwargs)
-    from infoseek.envs import make
+    """Build environment ``env``: a registered id, or a ``"module:callable"`` factory.
 
-    return make(env, **kwargs)
+    The environment puts every agent's belief view in its infos (``belief_in_infos``, what the
+    planners read); that is not part of the stored configuration, as it changes no decision.
+    """
+    if ":" in env:
+        built = _import_object(env, "--env")(**kwargs)
+    else:
+        from infoseek.envs import make
+
+        built = make(env, **kwargs)
+    if hasattr(built.unwrapped, "belief_in_infos"):
+        built.unwrapped.belief_in_infos = True
+    return built
 
 
 def non_default_env_kwargs(env: str, env_kwargs: Mapping[str, Any]) -> dict[str, Any]:
@@ -301,9 +309,10 @@ def _min_separation(vehicle_states: np.ndarray) -> float | None:
 class _Recorder:
     """Accumulates the per-step metrics of one episode."""
 
-    def __init__(self, agents: Sequence[str], radius: float) -> None:
+    def __init__(self, agents: Sequence[str], radius: float, beliefs: Callable[[str], Any]) -> None:
         self.agents = list(agents)
         self.radius = radius
+        self.beliefs = beliefs
         self.series: dict[str, list[Any]] = {
             name: []
             for name in (
@@ -322,7 +331,7 @@ class _Recorder:
         masses, errors, entropies = [], [], []
         for agent in self.agents:
             info = infos[agent]
-            mass, error = _position_metrics(info["belief"], truth[:2], self.radius)
+            mass, error = _position_metrics(self.beliefs(agent), truth[:2], self.radius)
             masses.append(mass)
             errors.append(error)
             entropies.append(float(info["entropy"]))
@@ -357,7 +366,7 @@ def _run_trial(spec: TrialSpec) -> dict[str, Any]:
         policy = build_policy(spec.planner, env, spec.policy_seed, spec.planner_options)
         unwrapped = env.unwrapped
         radius = float(unwrapped.localization_radius)
-        recorder = _Recorder(env.possible_agents, radius)
+        recorder = _Recorder(env.possible_agents, radius, unwrapped.belief)
         recorder.add(infos, np.asarray(unwrapped.true_target(), dtype=float))
         plan_time: list[float] = []
         for _ in range(spec.steps):

@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from infoseek.envs import make, registry
+from infoseek.envs import registry
 from infoseek.experiments.arguments import check_writable_directory
-from infoseek.experiments.bench import trial_progress_bar
+from infoseek.experiments.bench import make_env, trial_progress_bar
 from infoseek.experiments.policies import PLANNER_NAMES, make_policy
 
 
@@ -62,7 +62,7 @@ def run_demo(args: argparse.Namespace) -> int:
         if args.steps < 1:
             raise ValueError(f"--steps must be >= 1, got {args.steps}")
         kwargs["max_cycles"] = args.steps
-    env = make(args.env, **kwargs)
+    env = make_env(args.env, **kwargs)
     observations, infos = env.reset(seed=args.seed)
     policy = make_policy(args.planner, env, seed=args.seed)
     out.mkdir(parents=True, exist_ok=True)
@@ -90,7 +90,7 @@ def run_demo(args: argparse.Namespace) -> int:
             step += 1
             truth = env.unwrapped.true_target()
             info = infos[first]
-            view = info["belief"]
+            view = env.unwrapped.belief(first)
             estimate = np.average(view.particles[:, :2], weights=view.weights, axis=0)
             error = float(np.hypot(*(estimate - truth[:2])))
             bar.write(

@@ -154,7 +154,9 @@ def _planning_times(planner_name: str, env_id: str, n_agents: int, repeats: int)
     from infoseek.envs import make
     from infoseek.experiments.policies import make_policy
 
-    env = make(env_id, n_agents=n_agents, n_particles=2000, max_cycles=repeats + 5)
+    env = make(
+        env_id, n_agents=n_agents, n_particles=2000, max_cycles=repeats + 5, belief_in_infos=True
+    )
     observations, infos = env.reset(seed=1)
     policy = make_policy(planner_name, env, seed=1)
     observations, _, _, _, infos = env.step(policy.act(observations, infos))  # first step
@@ -173,7 +175,7 @@ def _first_step_times(planner_name: str, env_id: str, n_agents: int, repeats: in
     from infoseek.envs import make
     from infoseek.experiments.policies import make_policy
 
-    env = make(env_id, n_agents=n_agents, n_particles=2000, max_cycles=5)
+    env = make(env_id, n_agents=n_agents, n_particles=2000, max_cycles=5, belief_in_infos=True)
     times = []
     for episode in range(repeats + 1):  # episode 0 is the warm-up
         observations, infos = env.reset(seed=100 + episode)

@@ -11,9 +11,10 @@ parallel loop::
 
 ``from_env`` copies the a-priori models into an :class:`~infoseek.planners.model.EnvModel`
 and parses the options (:mod:`infoseek.planners.config`). ``act`` reads, for every agent
-present in ``observations``, its own belief ``infos[agent]["belief"]`` and the vehicle states
-``infos[agent]["vehicle_states"]`` (rows in ``possible_agents`` order), and returns one action
-per agent inside ``env.action_space(agent)`` (:mod:`infoseek.planners.controls`).
+present in ``observations``, its own belief ``infos[agent]["belief"]`` (build the environment
+with ``belief_in_infos=True``: by default infos hold only numbers and arrays) and the vehicle
+states ``infos[agent]["vehicle_states"]`` (rows in ``possible_agents`` order), and returns one
+action per agent inside ``env.action_space(agent)`` (:mod:`infoseek.planners.controls`).
 """
 
 from __future__ import annotations
@@ -70,7 +71,8 @@ class Planner(ABC):
             observations: This step's observations (only the keys are used: they name the
                 agents still active).
             infos: This step's infos; ``infos[agent]`` must hold ``"belief"`` (for the
-                information planners) and ``"vehicle_states"``.
+                information planners; an env built with ``belief_in_infos=True``) and
+                ``"vehicle_states"``.
 
         Returns:
             One action per active agent, inside ``action_space(agent)``.
@@ -225,7 +227,11 @@ class InformationPlanner(Planner):
         for agent in agents:
             info = infos[agent]
             if "belief" not in info:
-                raise ValueError(f"infos[{agent!r}] must contain 'belief'")
+                raise ValueError(
+                    f"infos[{agent!r}] has no 'belief': build the environment with "
+                    "belief_in_infos=True (the information planners read each agent's own "
+                    "belief from its infos)"
+                )
             planning = subsample_particles(info["belief"], self.config.n_planning, self.rng)
             beliefs.append(self.estimator.bind(planning.particles, planning.weights))
         return beliefs

@@ -103,7 +103,8 @@ def test_infos_have_exactly_the_contract_keys(env_id: str) -> None:
         for i, agent in enumerate(env.possible_agents):
             info = infos[agent]
             assert tuple(info) == INFO_KEYS
-            assert isinstance(info["belief"], BeliefView)
+            assert "belief" not in info  # numbers and arrays only, for RL frameworks
+            assert isinstance(env.belief(agent), BeliefView)
             assert info["agent_index"] == i
             assert info["vehicle_states"].shape == (3, env.vehicle.state_dim)
             assert not info["vehicle_states"].flags.writeable
@@ -263,7 +264,7 @@ def _step_and_recompute(env, seed: int):
         own = priors[agent] + loglik[i]
         everyone = priors[agent] + loglik.sum(axis=0)
         results[agent] = (
-            np.array(infos[agent]["belief"].log_weights),
+            np.array(env.belief(agent).log_weights),
             own - _logsumexp(own),
             everyone - _logsumexp(everyone),
         )
@@ -356,7 +357,7 @@ def _rollout(env, seed: int, steps: int):
     trace = [(obs, infos, env.true_target())]
     for _ in range(steps):
         obs, rewards, _, _, infos = env.step(_random_actions(env, rng))
-        trace.append((obs, rewards, infos["vehicle_1"]["belief"].particles))
+        trace.append((obs, rewards, infos, env.unwrapped.belief("vehicle_1").particles))
     return trace
 
 
@@ -632,9 +633,10 @@ def test_reset_options_place_the_target_and_reject_bad_keys() -> None:
     env.reset(seed=3, options={"target": [30.0, 20.0, np.pi / 4]})
     np.testing.assert_allclose(env.unwrapped.true_target(), [30.0, 20.0, np.pi / 4])
     # The other streams are unchanged: the beliefs are the same as without the option.
-    _, infos_placed = env.reset(seed=3, options={"target": [30.0, 20.0, np.pi / 4]})
-    _, infos_drawn = env.reset(seed=3)
-    assert infos_placed["vehicle_0"]["belief"] == infos_drawn["vehicle_0"]["belief"]
+    env.reset(seed=3, options={"target": [30.0, 20.0, np.pi / 4]})
+    placed = env.unwrapped.belief("vehicle_0")
+    env.reset(seed=3)
+    assert placed == env.unwrapped.belief("vehicle_0")
     with pytest.warns(UserWarning, match="ignoring unknown keys"):
         env.reset(options={"targte": [1.0, 1.0, 0.0]})
     with pytest.raises(ValueError, match="outside the domain"):

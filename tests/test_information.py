@@ -102,7 +102,7 @@ def test_planner_options_are_validated_when_the_planner_is_built():
 def test_monte_carlo_planner_draws_from_its_own_generator():
     """mi_method='monte_carlo' works in act(): the planner passes its own generator, so two
     planners with the same seed make the same decisions."""
-    env = infoseek.envs.make("bearings_v0", n_agents=2, n_particles=100)
+    env = infoseek.envs.make("bearings_v0", n_agents=2, n_particles=100, belief_in_infos=True)
     controls = []
     for _ in range(2):
         observations, infos = env.reset(seed=4)

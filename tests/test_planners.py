@@ -15,6 +15,12 @@ from infoseek.planners import (
 )
 from infoseek.planners.lawnmower import lawnmower_waypoints
 
+
+def _make(env_id: str, **kwargs: object) -> object:
+    """An environment whose infos carry the beliefs the planners read."""
+    return E.make(env_id, belief_in_infos=True, **kwargs)
+
+
 ENVS = ["bearings_v0", "beacon_v0"]
 ACTIONS = ["continuous", "discrete"]
 # Cheap planning options for the API tests (fewer particles, coarse grids).
@@ -44,7 +50,7 @@ def _forbid_truth(env, monkeypatch) -> None:
 )
 def test_actions_in_action_space(env_id, action_type, cls, monkeypatch) -> None:
     n_agents = 2 if cls is JointPlanner else 3
-    env = E.make(env_id, n_agents=n_agents, action_type=action_type, max_cycles=3)
+    env = _make(env_id, n_agents=n_agents, action_type=action_type, max_cycles=3)
     observations, infos = env.reset(seed=1)
     planner = cls.from_env(env, **_options(cls, env_id))
     _forbid_truth(env, monkeypatch)
@@ -58,7 +64,7 @@ def test_actions_in_action_space(env_id, action_type, cls, monkeypatch) -> None:
 
 @pytest.mark.parametrize("cls", [SingleNodePlanner, RandomPolicy, LawnmowerPolicy])
 def test_single_agent(cls) -> None:
-    env = E.make("bearings_v0", n_agents=1, max_cycles=2)
+    env = _make("bearings_v0", n_agents=1, max_cycles=2)
     observations, infos = env.reset(seed=0)
     actions = cls.from_env(env, **_options(cls, "bearings_v0")).act(observations, infos)
     assert env.action_space("vehicle_0").contains(actions["vehicle_0"])
@@ -66,13 +72,13 @@ def test_single_agent(cls) -> None:
 
 def test_pairwise_needs_two_agents_and_joint_limit() -> None:
     with pytest.raises(ValueError, match="at least 2"):
-        PairwiseNodePlanner.from_env(E.make("bearings_v0", n_agents=1))
+        PairwiseNodePlanner.from_env(_make("bearings_v0", n_agents=1))
     with pytest.raises(ValueError, match="n_agents=4 exceeds"):
-        JointPlanner.from_env(E.make("bearings_v0", n_agents=4))
+        JointPlanner.from_env(_make("bearings_v0", n_agents=4))
 
 
 def test_unknown_option_lists_valid_ones() -> None:
-    env = E.make("bearings_v0", n_agents=2)
+    env = _make("bearings_v0", n_agents=2)
     with pytest.raises(ValueError, match="n_planning"):
         PairwiseNodePlanner.from_env(env, n_particles=10)
     with pytest.raises(ValueError, match="seed"):
@@ -83,7 +89,7 @@ def test_unknown_option_lists_valid_ones() -> None:
 
 def test_each_vehicle_plans_with_its_own_belief() -> None:
     """Swapping one agent's belief changes only what that agent's utility sees."""
-    env = E.make("bearings_v0", n_agents=2, max_cycles=3)
+    env = _make("bearings_v0", n_agents=2, max_cycles=3)
     observations, infos = env.reset(seed=0)
     planner = SingleNodePlanner.from_env(env, seed=0, **FAST, refine=False)
     planner.act(observations, infos)
@@ -102,7 +108,7 @@ def test_each_vehicle_plans_with_its_own_belief() -> None:
 
 
 def test_seeded_planners_are_reproducible() -> None:
-    env = E.make("bearings_v0", n_agents=3, max_cycles=2)
+    env = _make("bearings_v0", n_agents=3, max_cycles=2)
     observations, infos = env.reset(seed=4)
     for cls in (PairwiseNodePlanner, RandomPolicy):
         opts = _options(cls, "bearings_v0")
@@ -113,7 +119,7 @@ def test_seeded_planners_are_reproducible() -> None:
 
 
 def test_pairwise_diagnostics() -> None:
-    env = E.make("bearings_v0", n_agents=3)
+    env = _make("bearings_v0", n_agents=3)
     observations, infos = env.reset(seed=0)
     planner = PairwiseNodePlanner.from_env(env, seed=0, **FAST)
     planner.act(observations, infos)
@@ -135,7 +141,7 @@ def test_lawnmower_waypoints_cover_strip() -> None:
 def _closed_loop(env_id: str, seeds, options: dict) -> list[float]:
     masses = []
     for seed in seeds:
-        env = E.make(env_id, n_agents=4)
+        env = _make(env_id, n_agents=4)
         observations, infos = env.reset(seed=seed)
         base = env.unwrapped
         low, high = base.control_low, base.control_high
@@ -181,7 +187,7 @@ def test_closed_loop_beacon(chunk: int) -> None:
 def test_planners_score_with_the_likelihood_the_beliefs_apply() -> None:
     """beacon_v0's beliefs apply the receiver with its noise floor; the planners' model is that
     same likelihood (not the exact sensor that makes the measurements)."""
-    env = E.make("beacon_v0", n_agents=2, n_particles=300, resample_threshold=0.0, roughening=0.0)
+    env = _make("beacon_v0", n_agents=2, n_particles=300, resample_threshold=0.0, roughening=0.0)
     planner = PairwiseNodePlanner.from_env(env)
     base = env.unwrapped
     observations, infos = env.reset(seed=5)

@@ -98,6 +98,7 @@ class Airplane:
         control_low: ``(1,)`` read-only ``[-max_turn_rate]``.
         control_high: ``(1,)`` read-only ``[max_turn_rate]``.
         state_names: ``("x", "y", "heading")``.
+        max_speed: ``speed`` (the airplane always flies at it).
         initial_heading: Heading of every airplane from :meth:`initial_states` (``pi / 4``).
     """
 
@@ -110,6 +111,7 @@ class Airplane:
 
     def __init__(self, speed: float = 1.0, max_turn_rate: float = 0.5) -> None:
         self.speed = check_positive(speed, "speed")
+        self.max_speed = self.speed
         self.max_turn_rate = check_positive(max_turn_rate, "max_turn_rate")
         self.control_low = _readonly(np.array([-self.max_turn_rate]))
         self.control_high = _readonly(np.array([self.max_turn_rate]))

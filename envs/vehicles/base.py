@@ -27,6 +27,8 @@ class Vehicle(Protocol):
         control_low: ``(control_dim,)`` lower control bounds.
         control_high: ``(control_dim,)`` upper control bounds.
         state_names: Name of each state coordinate (for observation manuals).
+        max_speed: Upper bound on the vehicle's speed (distance units per second); bounds the
+            positions an episode can reach (finite observation bounds).
     """
 
     name: str
@@ -35,6 +37,7 @@ class Vehicle(Protocol):
     control_low: NDArray[np.float64]
     control_high: NDArray[np.float64]
     state_names: tuple[str, ...]
+    max_speed: float
 
     def step(self, states: FloatArray, controls: FloatArray, dt: float) -> FloatArray:
         """Advance states by one time step.

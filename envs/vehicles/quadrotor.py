@@ -39,6 +39,7 @@ class Quadrotor:
         control_low: ``(2,)`` read-only ``[-max_accel, -max_accel]``.
         control_high: ``(2,)`` read-only ``[max_accel, max_accel]``.
         state_names: ``("x", "y", "vx", "vy")``.
+        max_speed: The speed limit.
     """
 
     name = "quadrotor"
