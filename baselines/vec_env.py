@@ -7,17 +7,19 @@ policy is trained on the transitions of all agents (parameter sharing). The chai
         -> supersuit.concat_vec_envs_v1(n_envs copies)             (n_envs * A slots)
         -> SeededSB3VecEnv                                          (the SB3 VecEnv)
 
-**Why the info filter (training only).** The environment's ``infos[agent]`` carry a
-``BeliefView`` (the agent's particle set, ``(N, d)`` arrays) and the ``(A, state_dim)`` vehicle
-states. SuperSuit forwards infos unchanged, and with worker processes (``num_cpus >= 2``) it
-pickles them through pipes every step, which is pure overhead for training (SB3 never reads
-them). :class:`TrainingInfoFilter` keeps only the scalar entries (``"entropy"``,
+**Why the info filter (SB3 training only).** The environment's ``infos[agent]`` carry the
+``(A, state_dim)`` vehicle states (and, with ``belief_in_infos=True``, the belief view).
+SuperSuit forwards infos unchanged, and with worker processes (``num_cpus >= 2``) it pickles
+them through pipes every step, which is pure overhead for training (SB3 never reads them).
+:class:`TrainingInfoFilter` keeps only the scalar entries (``"entropy"``,
 ``"posterior_mass"``, ``"ess"``, ...) and adds ``"TimeLimit.truncated"`` (true when the episode
 ended by ``max_cycles`` rather than by localisation), which SB3 reads to bootstrap the value at
 time-limit truncations (PPO) and to mark timeouts in the replay buffer (SAC/TD3), and, at the
 end of an episode, ``"episode": {"r": return, "l": length, "t": 0.0}`` (the Monitor-style record
-SB3 turns into ``rollout/ep_rew_mean`` and ``rollout/ep_len_mean``). Evaluation and
-:func:`infoseek.baselines.load_policy` use the real, unfiltered environment.
+SB3 turns into ``rollout/ep_rew_mean`` and ``rollout/ep_len_mean``). Those two keys follow SB3's
+conventions (present only at steps), so the filter is for this SB3 chain only; other frameworks
+take the environment itself, whose infos already have fixed keys (see ``examples/``). Evaluation
+and :func:`infoseek.baselines.load_policy` use the real, unfiltered environment.
 
 **Seeding.** SuperSuit's SB3 adapter does not implement ``VecEnv.seed`` (the SuperSuit vector
 env has no ``seed`` method), so :class:`SeededSB3VecEnv` stores the seed SB3 gives it and passes
