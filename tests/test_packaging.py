@@ -74,3 +74,18 @@ def test_test_command_of_readme_is_what_ci_runs() -> None:
     test_command = 'pip install -e ".[test]" && pytest'
     assert test_command in readme
     assert test_command in ci.splitlines()
+
+
+def test_license_and_citation_agree_with_pyproject() -> None:
+    project = _pyproject()["project"]
+    assert project["license"]["text"] == "MIT"
+    licence = (ROOT / "LICENSE").read_text()
+    assert licence.startswith("MIT License") and "WITHOUT WARRANTY OF ANY KIND" in licence
+    fields = {}
+    for line in (ROOT / "CITATION.cff").read_text().splitlines():
+        if line and not line.startswith((" ", "-", "#")) and ":" in line:
+            key, _, value = line.partition(":")
+            fields[key] = value.strip().strip('"')
+    assert fields["cff-version"] == "1.2.0"
+    assert fields["license"] == "MIT" and fields["version"] == project["version"]
+    assert "title" in fields and "preferred-citation" in fields
