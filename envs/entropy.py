@@ -27,8 +27,8 @@ particle count. The adaptive grid fixes the *number of particles per cell* inste
 At the uniform prior this is within 0.3 % of ``log(vol(Theta))`` for 500 to 10,000 particles on
 both environments' domains (test ``test_entropy_at_the_uniform_prior_is_the_log_volume``), and
 it follows a collapsing belief down to the spread floor (a Gaussian belief of std 0.3 reads its
-closed-form entropy ``log(2 pi e sigma^2)`` within 0.05 nats). Cost: one sort per coordinate and
-one ``bincount``.
+closed-form entropy ``log(2 pi e sigma^2)`` within 0.05 nats). Cost: one selection (equal
+weights) or sort (unequal weights) per coordinate and one ``bincount``.
 
 **Fixed grid** (:func:`fixed_grid_entropy`, when a belief is given ``entropy_bins``): ``B`` equal
 cells over the whole domain, plug-in. Values are comparable across beliefs with the same grid,
@@ -85,12 +85,27 @@ def _unroll_periodic(column: FloatArray) -> FloatArray:
     return np.mod(column - start, 1.0)
 
 
-def _weighted_quantiles(scaled: FloatArray, weights: FloatArray, q: float) -> FloatArray:
-    """``(d,)`` weighted ``q``-quantile of every column of ``scaled``."""
+def _weighted_box(scaled: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """``(d,)`` weighted ``TAIL`` and ``1 - TAIL`` quantiles of every column of ``scaled``: the
+    smallest value whose cumulative weight (in ascending order) reaches that fraction."""
+    n, d = scaled.shape
+    columns = np.arange(d)
+    if np.all(weights == weights[0]):
+        # equal weights (after resampling): the cumulative weights of any order are the same,
+        # and a selection finds the same order statistics as the full sort
+        cumulative = np.cumsum(np.full(n, weights[0]))
+        low_k, high_k = (
+            min(int(np.argmax(cumulative >= q * cumulative[-1])), n - 1) for q in (TAIL, 1 - TAIL)
+        )
+        ordered = np.partition(scaled, (low_k, high_k), axis=0)
+        return ordered[low_k], ordered[high_k]
     order = np.argsort(scaled, axis=0, kind="stable")
     cumulative = np.cumsum(weights[order], axis=0)
-    index = np.minimum(np.argmax(cumulative >= q * cumulative[-1], axis=0), scaled.shape[0] - 1)
-    return np.take_along_axis(scaled, order, axis=0)[index, np.arange(scaled.shape[1])]
+    low_k, high_k = (
+        np.minimum(np.argmax(cumulative >= q * cumulative[-1], axis=0), n - 1)
+        for q in (TAIL, 1 - TAIL)
+    )
+    return scaled[order[low_k, columns], columns], scaled[order[high_k, columns], columns]
 
 
 def adaptive_histogram_entropy(
@@ -113,8 +128,8 @@ def adaptive_histogram_entropy(
     periodic = np.asarray(space.periodic, dtype=bool)
     for j in np.flatnonzero(periodic):
         scaled[:, j] = _unroll_periodic(np.mod(scaled[:, j], 1.0))
-    box_low = _weighted_quantiles(scaled, weights, TAIL)
-    side = np.maximum(_weighted_quantiles(scaled, weights, 1.0 - TAIL) - box_low, BOX_FLOOR)
+    box_low, box_high = _weighted_box(scaled, weights)
+    side = np.maximum(box_high - box_low, BOX_FLOOR)
     ess = float(1.0 / np.dot(weights, weights))
     n_cells = max(1.0, ess / PARTICLES_PER_CELL)
     cube = (float(np.prod(side)) / n_cells) ** (1.0 / side.size)
