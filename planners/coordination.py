@@ -37,11 +37,27 @@ stopping there would return an infeasible plan that the next iterations would re
 vehicles' controls enter vehicle :math:`i`'s cost. Following the paper, vehicle :math:`i`
 holds a copy :math:`\tilde u^{(i)}` of *all* controls, and the agreement constraints
 :math:`\tilde u^{(i)} = \tilde u^{(j)}` are penalised with the same :math:`1/\beta_k` weight.
-This module realises that program by block-coordinate descent: vehicle :math:`i` optimises
-its own block :math:`\tilde u^{(i)}_i` and sets every other block :math:`\tilde u^{(i)}_j` to
-the latest plan exchanged by vehicle :math:`j`, which is the minimiser of the agreement
-penalty in that block. Its own block is penalised against the copies the others hold of it
-(its previous plan): the term :math:`w_a \|x^{(i)}_{t+1}(c) - x^{(i)}_{t+1}(c^{(i)}_{k-1})\|^2`
+This module does *not* solve that program; it departs from it (a documented deviation):
+vehicle :math:`i` optimises its own block :math:`\tilde u^{(i)}_i` and sets every other block
+:math:`\tilde u^{(i)}_j` to the latest plan exchanged by vehicle :math:`j`. That choice
+minimises the agreement penalty alone, not the whole objective (the copies also enter
+:math:`V^{(i)}`), so it is the limit of an infinite agreement weight: best-response dynamics on
+exact copies. What it drops is the negotiation of eq. 30, in which a vehicle's preferences about
+its partners' plans pull its copies, and through the agreement terms the partners, toward them.
+Why it is sound: when the vehicles' beliefs coincide, the pairwise-node utilities form an exact
+potential game with the team potential
+:math:`\Phi = (2 - n_v) \sum_i I(z^{(i)}; \theta) + \sum_{i < j} I(z^{(i)}, z^{(j)}; \theta)`
+(eq. 22 summed, the pairwise approximation of the joint MI) minus the symmetric separation
+penalties :math:`\sum_{i < m} \max(0, g^{(i,m)})^{\gamma} / \beta_k`: a change of vehicle
+:math:`i`'s plan changes :math:`\Phi` by exactly the change of its own objective. A
+Gauss-Seidel sweep is therefore coordinate ascent on :math:`\Phi` (non-decreasing at every
+local solve for a fixed :math:`\beta_k`), and on a finite candidate set it stops at a
+coordinate-wise maximum, a pure Nash equilibrium. With beliefs that differ (each vehicle keeps
+its own particles and subsamples its own planning particles; ``comm_range`` and
+``message_loss`` make them diverge further) the potential holds only approximately and
+``max_iterations`` bounds the sweeps. In the synchronous schedule the own block is penalised
+against the copies the others hold of it (its previous plan):
+the term :math:`w_a \|x^{(i)}_{t+1}(c) - x^{(i)}_{t+1}(c^{(i)}_{k-1})\|^2`
 above, measured through the dynamics in position units (the same units as the separation
 penalty), with weight ``agreement_weight`` :math:`w_a` relative to :math:`1/\beta_k`. The
 pairwise utility of a candidate is then evaluated against the partner plans held in the copy.

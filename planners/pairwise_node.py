@@ -8,10 +8,10 @@ Vehicle :math:`i` maximises, on its own belief,
 
 where :math:`z^{(j)}` is the observation vehicle :math:`j` would make at the next position of
 its plan *as held in vehicle i's slack copy* :math:`\tilde u^{(i)}` (eq. 30). The copies are
-realised by block-coordinate descent in :func:`~infoseek.planners.coordination.coordinate`:
-vehicle :math:`i` optimises its own block and sets the other blocks to the latest exchanged
-plans (the minimisers of the agreement penalty); the final copies agree with the final plans
-at convergence (``last_plan.agreement_residual``).
+exact copies of the latest exchanged plans (best response, a deviation from eq. 30's penalised
+agreement; :mod:`~infoseek.planners.coordination` says what that drops and why it is sound:
+coordinate ascent on a team potential); the final copies agree with the final plans at
+convergence (``last_plan.agreement_residual``).
 
 Cost control: the single terms are computed once per step (one batched call per vehicle). The
 pair terms :math:`I(z^{(i)}_c, z^{(j)}; \theta)` for all of vehicle ``i``'s candidates ``c`` are
