@@ -97,7 +97,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from infoseek.envs.entropy import adaptive_histogram_entropy, fixed_grid_entropy
+from infoseek.envs.entropy import (
+    adaptive_histogram_entropy,
+    fixed_grid_entropy,
+    grid_cell_index,
+)
 from infoseek.envs.resampling import systematic_resample
 from infoseek.envs.targets import (
     StationaryTarget,
@@ -763,14 +767,9 @@ class ParticleBelief:
 
     def _cell_index(self, dims: tuple[int, ...], bins: tuple[int, ...]) -> np.ndarray:
         """Flat index of each particle's cell on a grid with ``bins`` cells over ``dims``."""
-        space = self._space
-        low = space.low_array[list(dims)]
-        width = space.high_array[list(dims)] - low
-        b = np.asarray(bins)
-        cell = np.floor((self._particles[:, list(dims)] - low) * (b / width)).astype(np.int64)
-        np.clip(cell, 0, b - 1, out=cell)
-        strides = np.cumprod(np.concatenate([b[1:], [1]])[::-1])[::-1]
-        return cell @ strides
+        low = self._space.low_array[list(dims)]
+        width = self._space.high_array[list(dims)] - low
+        return grid_cell_index(self._particles[:, list(dims)], low, width, np.asarray(bins))
 
     def entropy(self) -> float:
         """Histogram estimate of the differential entropy (eq. 6), in nats.

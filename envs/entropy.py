@@ -53,6 +53,7 @@ __all__ = [
     "TAIL",
     "adaptive_histogram_entropy",
     "fixed_grid_entropy",
+    "grid_cell_index",
 ]
 
 #: Effective particles per cell of the adaptive grid.
@@ -63,15 +64,31 @@ TAIL = 1e-3
 BOX_FLOOR = 1e-3
 
 
-def _cell_entropy(
-    scaled: FloatArray, weights: FloatArray, low: FloatArray, side: FloatArray, bins: NDArray
-) -> tuple[float, int]:
-    """Plug-in ``-sum P_c log P_c`` over the grid of ``bins`` cells on the box
-    ``[low, low + side]`` (points outside count in the edge cells), and the occupied cells."""
-    cell = np.floor((scaled - low) * (bins / side)).astype(np.int64)
+def grid_cell_index(
+    coords: FloatArray, low: FloatArray, width: FloatArray, bins: NDArray[np.integer]
+) -> NDArray[np.int64]:
+    """``(N,)`` flat index (last coordinate fastest) of each point's cell on the grid of ``bins``
+    equal cells over the box ``[low, low + width]``; points outside count in the edge cells.
+
+    Args:
+        coords: ``(N, k)`` points.
+        low: ``(k,)`` lower corner of the box.
+        width: ``(k,)`` side lengths of the box (> 0).
+        bins: ``(k,)`` cells per coordinate.
+    """
+    cell = np.floor((coords - low) * (bins / width)).astype(np.int64)
     np.clip(cell, 0, bins - 1, out=cell)
     strides = np.cumprod(np.concatenate([bins[1:], [1]])[::-1])[::-1]
-    mass = np.bincount(cell @ strides, weights=weights, minlength=int(np.prod(bins)))
+    return cell @ strides
+
+
+def _cell_entropy(
+    coords: FloatArray, weights: FloatArray, low: FloatArray, width: FloatArray, bins: NDArray
+) -> tuple[float, int]:
+    """Plug-in ``-sum P_c log P_c`` over the grid of ``bins`` cells on the box
+    ``[low, low + width]`` (:func:`grid_cell_index`), and the number of occupied cells."""
+    flat = grid_cell_index(coords, low, width, bins)
+    mass = np.bincount(flat, weights=weights, minlength=int(np.prod(bins)))
     mass = mass[mass > 0]
     mass = mass / mass.sum()
     return float(-np.dot(mass, np.log(mass))), int(mass.size)
@@ -156,7 +173,5 @@ def fixed_grid_entropy(
     low = space.low_array
     width = space.high_array - low
     grid = np.asarray(bins, dtype=np.int64)
-    plug_in, _ = _cell_entropy(
-        (particles - low) / width, weights, np.zeros(grid.size), np.ones(grid.size), grid
-    )
+    plug_in, _ = _cell_entropy(particles, weights, low, width, grid)
     return plug_in + math.log(space.volume) - math.log(float(np.prod(grid)))

@@ -16,6 +16,7 @@ import argparse
 import os
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -107,8 +108,9 @@ def run_demo(args: argparse.Namespace) -> int:
 
     gif_path = out / f"{stem}.gif"
     png_path = out / f"{stem}.png"
-    _write_gif(frames, gif_path, fps=args.fps)
-    _write_png(frames[-1], png_path)
+    duration_ms = int(round(1000.0 / args.fps))
+    _save_atomically(frames, gif_path, format="GIF", duration=duration_ms, loop=0)
+    _save_atomically(frames[-1:], png_path, format="PNG")
     if interrupted:
         print(f"interrupted after {len(frames) - 1} step(s); the frames so far are written")
     print(f"wrote {gif_path}")
@@ -116,22 +118,14 @@ def run_demo(args: argparse.Namespace) -> int:
     return 130 if interrupted else 0
 
 
-def _write_gif(frames: list[np.ndarray], path: Path, fps: float) -> None:
-    """Write the animation atomically (temporary file, then rename: never a partial GIF)."""
+def _save_atomically(frames: list[np.ndarray], path: Path, format: str, **options: Any) -> None:
+    """Save ``frames`` with PIL to a temporary file, then rename it to ``path``: never a
+    partial image. ``format`` and ``options`` (animation settings) go to ``Image.save``."""
     from PIL import Image
 
     images = [Image.fromarray(frame) for frame in frames]
-    duration_ms = int(round(1000.0 / fps))
     tmp = path.with_name(f".{path.name}.tmp")
-    images[0].save(
-        tmp, format="GIF", save_all=True, append_images=images[1:], duration=duration_ms, loop=0
-    )
-    os.replace(tmp, path)
-
-
-def _write_png(frame: np.ndarray, path: Path) -> None:
-    from PIL import Image
-
-    tmp = path.with_name(f".{path.name}.tmp")
-    Image.fromarray(frame).save(tmp, format="PNG")
+    if len(images) > 1:
+        options = {**options, "save_all": True, "append_images": images[1:]}
+    images[0].save(tmp, format=format, **options)
     os.replace(tmp, path)
