@@ -97,18 +97,17 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from infoseek.envs.entropy import (
-    adaptive_histogram_entropy,
-    fixed_grid_entropy,
-    grid_cell_index,
+from infoseek.envs.belief_batch import (
+    DEGENERATE_LOG_EVIDENCE,
+    SPREAD_FLOOR,
+    TEMPERING_BISECTION_STEPS,
+    TEMPERING_MOVE_SCALE,
+    TEMPERING_MOVE_SHRINK,
+    TEMPERING_MOVE_SWEEPS,
+    BeliefBatch,
+    logsumexp_rows,
 )
-from infoseek.envs.resampling import systematic_resample
-from infoseek.envs.targets import (
-    StationaryTarget,
-    TargetMotion,
-    TargetSpace,
-    reflect_into_interval,
-)
+from infoseek.envs.targets import StationaryTarget, TargetMotion, TargetSpace
 
 FloatArray = NDArray[np.float64]
 
@@ -122,44 +121,14 @@ __all__ = [
     "BeliefUpdate",
     "BeliefView",
     "ParticleBelief",
+    "check_belief_settings",
 ]
-
-#: Log evidence below which an update counts as degenerate (exp underflows in float64).
-DEGENERATE_LOG_EVIDENCE = -700.0
-
-#: Roughening spread floor, as a fraction of each coordinate's domain width.
-SPREAD_FLOOR = 1e-3
-
-#: Bisection steps for a tempering exponent (on ``log lambda`` over 60 nats below the remainder).
-TEMPERING_BISECTION_STEPS = 40
-
-#: Metropolis sweeps of the tempering move: the first proposes Gaussian steps of
-#: ``TEMPERING_MOVE_SCALE`` times the particles' per-coordinate std, each next one
-#: ``TEMPERING_MOVE_SHRINK`` times smaller.
-TEMPERING_MOVE_SWEEPS = 5
-TEMPERING_MOVE_SCALE = 1.0
-TEMPERING_MOVE_SHRINK = 0.3
-
-#: Smallest tempering exponent tried, relative to the remaining exponent (``exp(-60)``).
-_LOG_MIN_LAMBDA = -60.0
 
 
 def _readonly(arr: np.ndarray) -> np.ndarray:
     view = arr.view()
     view.flags.writeable = False
     return view
-
-
-def _logsumexp(values: FloatArray) -> float:
-    peak = float(np.max(values))
-    if not np.isfinite(peak):
-        return peak  # -inf (all impossible) or +inf
-    return peak + math.log(float(np.sum(np.exp(values - peak))))
-
-
-def _log_ess(log_weights: FloatArray) -> float:
-    """``log ESS`` of unnormalised log-weights: ``2 logsumexp(lw) - logsumexp(2 lw)``."""
-    return 2.0 * _logsumexp(log_weights) - _logsumexp(2.0 * log_weights)
 
 
 @dataclass(frozen=True)
@@ -217,15 +186,6 @@ class BeliefView:
         )
 
     __hash__ = None  # type: ignore[assignment]
-
-
-def _angle_scale(space: TargetSpace) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Indices of periodic dims, their lows, periods and the harmonic (2 axial, 1 circular)."""
-    idx = np.flatnonzero(space.periodic_mask)
-    low = space.low_array[idx]
-    period = space.high_array[idx] - low
-    harmonic = np.where(space.axial_mask[idx], 2.0, 1.0)
-    return idx, low, period, harmonic
 
 
 class ParticleBelief:
@@ -288,55 +248,21 @@ class ParticleBelief:
                 raise ValueError(f"log_weights must have shape ({n},), got {lw.shape}")
             if np.any(np.isnan(lw)) or np.any(lw == np.inf):
                 raise ValueError("log_weights must not contain NaN or +inf")
-            total = _logsumexp(lw)
+            total = float(logsumexp_rows(lw[None])[0])
             if not np.isfinite(total):
                 raise ValueError("log_weights must not all be -inf")
             lw = lw - total
-        if motion is None:
-            motion = StationaryTarget()
-        if not isinstance(motion, TargetMotion):
-            raise TypeError(f"motion must be a TargetMotion, got {type(motion).__name__}")
-        if not (np.isfinite(resample_threshold) and 0.0 <= resample_threshold <= 1.0):
-            raise ValueError(f"resample_threshold must be in [0, 1], got {resample_threshold!r}")
-        if not (np.isfinite(roughening) and roughening >= 0.0):
-            raise ValueError(f"roughening must be a finite float >= 0, got {roughening!r}")
-        if not (np.isfinite(recovery_fraction) and 0.0 < recovery_fraction <= 1.0):
-            raise ValueError(f"recovery_fraction must be in (0, 1], got {recovery_fraction!r}")
-        if isinstance(tempering_ess, bool) or not (
-            isinstance(tempering_ess, int | float | np.integer | np.floating)
-            and 0.0 <= tempering_ess < 1.0
-        ):
-            raise ValueError(f"tempering_ess must be a float in [0, 1), got {tempering_ess!r}")
-        if (
-            isinstance(max_tempering_stages, bool)
-            or not isinstance(max_tempering_stages, int | np.integer)
-            or max_tempering_stages < 1
-        ):
-            raise ValueError(
-                f"max_tempering_stages must be an integer >= 1, got {max_tempering_stages!r}"
-            )
-        bins: tuple[int, ...] | None = None
-        if entropy_bins is not None:
-            bins = tuple(entropy_bins)
-            if len(bins) != space.dim or not all(
-                isinstance(b, int | np.integer) and not isinstance(b, bool) and b >= 1 for b in bins
-            ):
-                raise ValueError(
-                    f"entropy_bins must be {space.dim} positive integers, got {entropy_bins!r}"
-                )
-            bins = tuple(int(b) for b in bins)
-
-        self._space = space
-        self._rng = rng
-        self._motion = motion
-        self._resample_threshold = float(resample_threshold)
-        self._roughening = float(roughening)
-        self._recovery_fraction = float(recovery_fraction)
-        self._tempering_ess = float(tempering_ess)
-        self._max_tempering_stages = int(max_tempering_stages)
-        self._entropy_bins = bins
-        self._particles = space.wrap(p)
-        self._set_log_weights(lw)
+        settings = check_belief_settings(
+            motion=motion,
+            resample_threshold=resample_threshold,
+            roughening=roughening,
+            entropy_bins=entropy_bins,
+            recovery_fraction=recovery_fraction,
+            tempering_ess=tempering_ess,
+            max_tempering_stages=max_tempering_stages,
+            space=space,
+        )
+        self._batch = BeliefBatch(space.wrap(p)[None], lw[None], space, [rng], **settings)
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -361,6 +287,19 @@ class ParticleBelief:
             raise TypeError(f"space must be a TargetSpace, got {type(space).__name__}")
         return cls(space.sample_uniform(int(n_particles), rng), space, rng, **kwargs)
 
+    @classmethod
+    def row_of(cls, batch: BeliefBatch, row: int) -> ParticleBelief:
+        """A new belief holding a copy of row ``row`` of ``batch`` (its generator state copied)."""
+        new = object.__new__(cls)
+        new._batch = BeliefBatch(
+            batch.particles[row : row + 1],
+            batch.log_weights[row : row + 1],
+            batch.space,
+            [_copy.deepcopy(batch.rngs[row])],
+            **_settings_of(batch),
+        )
+        return new
+
     def copy(self, rng: np.random.Generator | None = None) -> ParticleBelief:
         """Independent copy of this belief.
 
@@ -369,64 +308,58 @@ class ParticleBelief:
                 (the copy then draws the same random stream, and this belief's stream is not
                 advanced).
         """
-        new = object.__new__(ParticleBelief)
-        new.__dict__.update(self.__dict__)
-        new._rng = _copy.deepcopy(self._rng) if rng is None else rng
-        if not isinstance(new._rng, np.random.Generator):
+        if rng is not None and not isinstance(rng, np.random.Generator):
             raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-        # Arrays are never mutated in place, so sharing them is safe.
-        return new
+        new = ParticleBelief.row_of(self._batch, 0)
+        if rng is not None:
+            new._batch.rngs[0] = rng
+        return new  # arrays are never mutated in place, so sharing them is safe
 
     # ------------------------------------------------------------------ accessors
-    def _set_log_weights(self, log_weights: FloatArray) -> None:
-        self._log_weights = log_weights
-        w = np.exp(log_weights)
-        self._weights = w / w.sum()
-
     @property
     def particles(self) -> FloatArray:
         """``(N, d)`` read-only particle states."""
-        return _readonly(self._particles)
+        return _readonly(self._batch.particles[0])
 
     @property
     def log_weights(self) -> FloatArray:
         """``(N,)`` read-only normalised log-weights (``logsumexp = 0``)."""
-        return _readonly(self._log_weights)
+        return _readonly(self._batch.log_weights[0])
 
     @property
     def weights(self) -> FloatArray:
         """``(N,)`` read-only normalised weights."""
-        return _readonly(self._weights)
+        return _readonly(self._batch.weights[0])
 
     @property
     def n_particles(self) -> int:
         """Number of particles ``N``."""
-        return int(self._particles.shape[0])
+        return self._batch.n_particles
 
     @property
     def dim(self) -> int:
         """Target dimension ``d``."""
-        return self._space.dim
+        return self._batch.space.dim
 
     @property
     def space(self) -> TargetSpace:
         """The target space."""
-        return self._space
+        return self._batch.space
 
     @property
     def motion(self) -> TargetMotion:
         """The target motion model."""
-        return self._motion
+        return self._batch.motion
 
     @property
     def entropy_bins(self) -> tuple[int, ...] | None:
         """Cells per coordinate of the fixed entropy grid (``None``: adaptive grid)."""
-        return self._entropy_bins
+        return self._batch.entropy_bins
 
     @property
     def ess(self) -> float:
         """Effective sample size ``1 / sum w_k^2`` in ``[1, N]``."""
-        return float(1.0 / np.dot(self._weights, self._weights))
+        return float(self._batch.ess()[0])
 
     def view(self) -> BeliefView:
         """Read-only snapshot (arrays are shared, never mutated in place afterwards)."""
@@ -434,7 +367,7 @@ class ParticleBelief:
             particles=self.particles,
             weights=self.weights,
             log_weights=self.log_weights,
-            space=self._space,
+            space=self.space,
         )
 
     # ------------------------------------------------------------------ filter cycle
@@ -444,33 +377,7 @@ class ParticleBelief:
             isinstance(dt, int | float | np.floating | np.integer) and np.isfinite(dt) and dt > 0
         ):
             raise ValueError(f"dt must be a positive finite float, got {dt!r}")
-        moved = np.asarray(
-            self._motion.propagate(self._particles, self._space, float(dt), self._rng),
-            dtype=np.float64,
-        )
-        if moved.shape != self._particles.shape or not np.all(np.isfinite(moved)):
-            raise ValueError(
-                f"motion {self._motion!r} returned shape {moved.shape} or non-finite states; "
-                f"expected finite {self._particles.shape}"
-            )
-        self._particles = moved
-
-    def _total_log_likelihood(
-        self, sensor: Any, z: FloatArray, poses: FloatArray, particles: FloatArray
-    ) -> FloatArray:
-        loglik = np.asarray(sensor.log_likelihood(z, poses, particles), dtype=np.float64)
-        expected = (z.shape[0], particles.shape[0])
-        if loglik.shape != expected:
-            raise ValueError(
-                f"sensor {getattr(sensor, 'name', sensor)!r}: log_likelihood returned shape "
-                f"{loglik.shape}, expected {expected}"
-            )
-        total = loglik.sum(axis=0)
-        if np.any(np.isnan(total)) or np.any(total == np.inf):
-            raise ValueError(
-                f"sensor {getattr(sensor, 'name', sensor)!r}: log_likelihood returned NaN or +inf"
-            )
-        return total
+        self._batch.predict(float(dt))
 
     def update(self, sensor: Any, z: FloatArray, poses: FloatArray) -> BeliefUpdate:
         """Condition on ``M`` conditionally independent observations (eq. 4, eq. 14).
@@ -511,144 +418,15 @@ class ParticleBelief:
         m = int(z_arr.shape[0])
         if m == 0:
             return BeliefUpdate(recovered=False, log_evidence=0.0, n_observations=0)
-
-        loglik = self._total_log_likelihood(sensor, z_arr, poses_arr, self._particles)
-        particles, log_weights, log_evidence, stages = self._tempered_update(
-            sensor, z_arr, poses_arr, self._particles, self._log_weights, loglik
+        outcome = self._batch.update(
+            sensor, z_arr[None], poses_arr[None], np.ones((1, m), dtype=bool)
         )
-        if np.isfinite(log_evidence) and log_evidence >= DEGENERATE_LOG_EVIDENCE:
-            self._particles = particles
-            self._set_log_weights(log_weights)
-            return BeliefUpdate(
-                recovered=False, log_evidence=log_evidence, n_observations=m, n_stages=stages
-            )
-
-        # Degenerate even after tempering: mix fresh prior samples with survivors of the
-        # pre-update belief, then reapply the likelihood (tempered again).
-        n = self.n_particles
-        n_fresh = min(n, max(1, math.ceil(self._recovery_fraction * n)))
-        survivors = systematic_resample(self._weights, self._rng, n - n_fresh)
-        candidate = np.concatenate(
-            [self._particles[survivors], self._space.sample_uniform(n_fresh, self._rng)]
+        return BeliefUpdate(
+            recovered=bool(outcome.recovered[0]),
+            log_evidence=float(outcome.log_evidence[0]),
+            n_observations=int(outcome.n_observations[0]),
+            n_stages=int(outcome.n_stages[0]),
         )
-        loglik = self._total_log_likelihood(sensor, z_arr, poses_arr, candidate)
-        particles, log_weights, retry_evidence, stages = self._tempered_update(
-            sensor, z_arr, poses_arr, candidate, np.full(n, -math.log(n)), loglik
-        )
-        if np.isfinite(retry_evidence) and retry_evidence >= DEGENERATE_LOG_EVIDENCE:
-            self._particles = particles
-            self._set_log_weights(log_weights)
-            return BeliefUpdate(
-                recovered=True, log_evidence=log_evidence, n_observations=m, n_stages=stages
-            )
-        # Still impossible: drop the observations and keep the pre-update belief.
-        return BeliefUpdate(recovered=True, log_evidence=log_evidence, n_observations=0, n_stages=0)
-
-    def _tempered_update(
-        self,
-        sensor: Any,
-        z: FloatArray,
-        poses: FloatArray,
-        particles: FloatArray,
-        log_weights: FloatArray,
-        loglik: FloatArray,
-    ) -> tuple[FloatArray, FloatArray, float, int]:
-        """Bayes update by progressive correction (module docstring); does not modify ``self``.
-
-        Args:
-            sensor: The sensor (to recompute the likelihood after each move).
-            z: ``(M, obs_dim)`` observations.
-            poses: ``(M, pose_dim)`` sensor poses.
-            particles: ``(N, d)`` pre-update particles.
-            log_weights: ``(N,)`` normalised pre-update log-weights.
-            loglik: ``(N,)`` batch log-likelihood ``L`` of ``particles``.
-
-        Returns:
-            ``(particles (N, d), normalised log-weights (N,), log evidence, stages)``; the
-            log evidence is ``-inf`` (and the arrays meaningless) when some stage had no
-            particle of non-zero likelihood.
-        """
-        n = particles.shape[0]
-        tempering = self._tempering_ess > 0.0 and self._resample_threshold > 0.0 and n > 1
-        remaining = 1.0
-        log_evidence = 0.0
-        stage = 0
-        while True:
-            stage += 1
-            full = log_weights + remaining * loglik
-            log_z = _logsumexp(full)
-            if not np.isfinite(log_z):
-                return particles, log_weights, -math.inf, stage
-            log_floor = math.log(self._tempering_ess) + _log_ess(log_weights) if tempering else 0.0
-            if not tempering or stage >= self._max_tempering_stages or _log_ess(full) >= log_floor:
-                return particles, full - log_z, log_evidence + log_z, stage
-            lam = self._tempering_exponent(log_weights, loglik, remaining, log_floor)
-            partial = log_weights + lam * loglik
-            log_z = _logsumexp(partial)
-            log_evidence += log_z
-            idx = systematic_resample(np.exp(partial - log_z), self._rng)
-            particles, loglik = particles[idx], loglik[idx]
-            remaining -= lam
-            if self._roughening > 0.0:
-                particles, loglik = self._tempered_move(
-                    sensor, z, poses, particles, loglik, 1.0 - remaining
-                )
-            log_weights = np.full(n, -math.log(n))
-
-    def _tempered_move(
-        self,
-        sensor: Any,
-        z: FloatArray,
-        poses: FloatArray,
-        particles: FloatArray,
-        loglik: FloatArray,
-        exponent: float,
-    ) -> tuple[FloatArray, FloatArray]:
-        """Likelihood-guarded multi-scale roughening of resampled particles (module docstring).
-
-        ``TEMPERING_MOVE_SWEEPS`` Metropolis sweeps; sweep ``s`` proposes the Gordon jitter
-        scaled by ``TEMPERING_MOVE_SHRINK**s`` and accepts with probability
-        ``min(1, exp(exponent * (L(proposal) - L(particle))))``.
-
-        Returns:
-            ``(particles (N, d), loglik (N,))`` after the sweeps.
-        """
-        particles = particles.copy()
-        loglik = loglik.copy()
-        scale = TEMPERING_MOVE_SCALE
-        for _ in range(TEMPERING_MOVE_SWEEPS):
-            proposal = self._roughen(particles, move_scale=scale)
-            proposal_loglik = self._total_log_likelihood(sensor, z, poses, proposal)
-            log_u = np.log(self._rng.random(particles.shape[0]))
-            with np.errstate(invalid="ignore"):  # -inf - -inf cannot occur: loglik is finite
-                accept = log_u < exponent * (proposal_loglik - loglik)
-            particles[accept] = proposal[accept]
-            loglik[accept] = proposal_loglik[accept]
-            scale *= TEMPERING_MOVE_SHRINK
-        return particles, loglik
-
-    @staticmethod
-    def _tempering_exponent(
-        log_weights: FloatArray, loglik: FloatArray, remaining: float, log_floor: float
-    ) -> float:
-        """Largest ``lambda`` in ``(0, remaining]`` with ``log ESS(lw + lambda L) >= log_floor``.
-
-        Bisection on ``log lambda`` over ``[log remaining - 60, log remaining]``; if even the
-        smallest exponent leaves the ESS below the floor (e.g. particles of zero likelihood),
-        that smallest exponent is returned.
-        """
-        # Only finite-likelihood particles keep weight for lambda > 0; -inf * 0 must not occur.
-        hi = math.log(remaining)
-        lo = hi + _LOG_MIN_LAMBDA
-        if _log_ess(log_weights + math.exp(lo) * loglik) < log_floor:
-            return math.exp(lo)
-        for _ in range(TEMPERING_BISECTION_STEPS):
-            mid = 0.5 * (lo + hi)
-            if _log_ess(log_weights + math.exp(mid) * loglik) >= log_floor:
-                lo = mid
-            else:
-                hi = mid
-        return math.exp(lo)
 
     def resample_if_needed(self) -> bool:
         """Systematic resampling plus roughening when ``ESS < resample_threshold * N``.
@@ -658,72 +436,9 @@ class ParticleBelief:
         Returns:
             Whether resampling happened (weights are then uniform).
         """
-        n = self.n_particles
-        if self._resample_threshold <= 0.0 or n == 1:
-            return False
-        if not self.ess < self._resample_threshold * n * (1.0 - 1e-9):
-            return False
-        idx = systematic_resample(self._weights, self._rng)
-        particles = self._particles[idx]
-        if self._roughening > 0.0:
-            particles = self._roughen(particles)
-        self._particles = particles
-        self._set_log_weights(np.full(n, -math.log(n)))
-        return True
-
-    def _roughen(self, particles: FloatArray, move_scale: float | None = None) -> FloatArray:
-        """Gordon roughening of equally weighted ``(N, d)`` particles (see module docstring).
-
-        With ``move_scale`` the jitter is instead a tempering-move proposal: per-coordinate std
-        ``move_scale`` times the particles' standard deviation (angles: of the residuals about
-        the circular/axial mean).
-        """
-        space = self._space
-        n, d = particles.shape
-        columns = np.ascontiguousarray(particles.T)  # (d, N): fast per-coordinate reductions
-        idx, low, period, harmonic = _angle_scale(space)
-        if move_scale is None:
-            spread = columns.max(axis=1) - columns.min(axis=1)
-        else:
-            spread = columns.std(axis=1)
-        if idx.size:
-            center = self._angle_means(particles[:, idx], np.full(n, 1.0 / n))
-            half = period / (2.0 * harmonic)  # residuals live in [-half, half)
-            resid = np.mod(columns[idx] - center[:, None] + half[:, None], 2.0 * half[:, None])
-            if move_scale is None:
-                spread[idx] = resid.max(axis=1) - resid.min(axis=1)
-            else:
-                spread[idx] = resid.std(axis=1)
-        width = space.high_array - space.low_array
-        if move_scale is None:
-            # floor: a fully collapsed set (spread 0) would otherwise never be separated again
-            spread = np.maximum(spread, SPREAD_FLOOR * width)
-            std = self._roughening * spread * n ** (-1.0 / d)
-        else:
-            std = move_scale * np.maximum(spread, 1e-12 * width)
-        jittered = columns + std[:, None] * self._rng.standard_normal((n, d)).T
-        low_all, high_all = space.low_array, space.high_array
-        for j in np.flatnonzero(~space.periodic_mask):  # loop over coordinates, not particles
-            row = jittered[j]
-            out = np.flatnonzero((row < low_all[j]) | (row > high_all[j]))
-            if out.size:
-                row[out] = reflect_into_interval(row[out], low_all[j], high_all[j])
-        result = np.ascontiguousarray(jittered.T)
-        if idx.size:
-            result = space.wrap(result)
-        return result
+        return bool(self._batch.resample_if_needed()[0])
 
     # ------------------------------------------------------------------ estimates
-    def _angle_means(self, angles: FloatArray, weights: FloatArray) -> FloatArray:
-        """Circular/axial weighted means of the ``(N, k)`` periodic coordinates."""
-        _, low, period, harmonic = _angle_scale(self._space)
-        phase = (angles - low) * (2.0 * np.pi * harmonic / period)
-        c = weights @ np.cos(phase)
-        s = weights @ np.sin(phase)
-        mean_phase = np.mod(np.arctan2(s, c), 2.0 * np.pi)
-        mean = low + mean_phase * period / (2.0 * np.pi * harmonic)
-        return np.where(mean >= low + period / harmonic, low, mean)
-
     def mmse(self) -> FloatArray:
         """MMSE estimate (eq. 12), circular mean for periodic and axial mean for axial angles.
 
@@ -731,11 +446,7 @@ class ParticleBelief:
             ``(d,)`` estimate. Axial coordinates are reported in ``[low, low + period / 2)``; a
             periodic coordinate whose resultant vanishes (uniform) is reported as ``low``.
         """
-        est = self._weights @ self._particles
-        idx = np.flatnonzero(self._space.periodic_mask)
-        if idx.size:
-            est[idx] = self._angle_means(self._particles[:, idx], self._weights)
-        return est
+        return self._batch.mmse()[0]
 
     def mass_within(self, radius: float, center: FloatArray | None = None) -> float:
         """Posterior mass whose position lies within ``radius`` of ``center`` (Fig. 1 metric).
@@ -761,15 +472,7 @@ class ParticleBelief:
             if c.shape not in ((2,), (self.dim,)) or not np.all(np.isfinite(c)):
                 raise ValueError(f"center must be finite with shape (2,) or ({self.dim},)")
             c = c[:2]
-        diff = self._particles[:, :2] - c
-        inside = np.einsum("ij,ij->i", diff, diff) <= float(radius) ** 2
-        return float(min(1.0, self._weights[inside].sum()))
-
-    def _cell_index(self, dims: tuple[int, ...], bins: tuple[int, ...]) -> np.ndarray:
-        """Flat index of each particle's cell on a grid with ``bins`` cells over ``dims``."""
-        low = self._space.low_array[list(dims)]
-        width = self._space.high_array[list(dims)] - low
-        return grid_cell_index(self._particles[:, list(dims)], low, width, np.asarray(bins))
+        return float(self._batch.mass_within(float(radius), c[None])[0])
 
     def entropy(self) -> float:
         """Histogram estimate of the differential entropy (eq. 6), in nats.
@@ -777,9 +480,7 @@ class ParticleBelief:
         On the adaptive grid (default) or on the fixed ``entropy_bins`` grid; see
         :mod:`infoseek.envs.entropy`.
         """
-        if self._entropy_bins is None:
-            return adaptive_histogram_entropy(self._particles, self._weights, self._space)
-        return fixed_grid_entropy(self._particles, self._weights, self._space, self._entropy_bins)
+        return float(self._batch.entropy()[0])
 
     def mass_grid(self, shape: tuple[int, int] = (8, 8)) -> FloatArray:
         """Posterior position mass on a coarse ``gx x gy`` grid over the position box.
@@ -798,12 +499,84 @@ class ParticleBelief:
         for g in (gx, gy):
             if isinstance(g, bool) or not isinstance(g, int | np.integer) or g < 1:
                 raise ValueError(f"shape must be a pair of positive integers, got {shape!r}")
-        flat = self._cell_index((0, 1), (int(gx), int(gy)))
-        mass = np.bincount(flat, weights=self._weights, minlength=int(gx) * int(gy))
-        return (mass / mass.sum()).reshape(int(gx), int(gy))
+        return self._batch.mass_grid((int(gx), int(gy)))[0]
 
     def __repr__(self) -> str:
         return (
             f"ParticleBelief(n_particles={self.n_particles}, dim={self.dim}, "
-            f"ess={self.ess:.1f}, motion={self._motion!r})"
+            f"ess={self.ess:.1f}, motion={self.motion!r})"
         )
+
+
+def _settings_of(batch: BeliefBatch) -> dict[str, Any]:
+    return {
+        "motion": batch.motion,
+        "resample_threshold": batch.resample_threshold,
+        "roughening": batch.roughening,
+        "entropy_bins": batch.entropy_bins,
+        "recovery_fraction": batch.recovery_fraction,
+        "tempering_ess": batch.tempering_ess,
+        "max_tempering_stages": batch.max_tempering_stages,
+    }
+
+
+def check_belief_settings(
+    *,
+    motion: TargetMotion | None,
+    resample_threshold: float,
+    roughening: float,
+    entropy_bins: tuple[int, ...] | None,
+    recovery_fraction: float,
+    tempering_ess: float,
+    max_tempering_stages: int,
+    space: TargetSpace,
+) -> dict[str, Any]:
+    """Validate the filter settings (meanings: :class:`ParticleBelief`) and return them as the
+    keyword arguments of :class:`~infoseek.envs.belief_batch.BeliefBatch`.
+
+    Raises:
+        TypeError: ``motion`` is not a :class:`~infoseek.envs.targets.TargetMotion`.
+        ValueError: A setting outside its range, naming it.
+    """
+    if motion is None:
+        motion = StationaryTarget()
+    if not isinstance(motion, TargetMotion):
+        raise TypeError(f"motion must be a TargetMotion, got {type(motion).__name__}")
+    if not (np.isfinite(resample_threshold) and 0.0 <= resample_threshold <= 1.0):
+        raise ValueError(f"resample_threshold must be in [0, 1], got {resample_threshold!r}")
+    if not (np.isfinite(roughening) and roughening >= 0.0):
+        raise ValueError(f"roughening must be a finite float >= 0, got {roughening!r}")
+    if not (np.isfinite(recovery_fraction) and 0.0 < recovery_fraction <= 1.0):
+        raise ValueError(f"recovery_fraction must be in (0, 1], got {recovery_fraction!r}")
+    if isinstance(tempering_ess, bool) or not (
+        isinstance(tempering_ess, int | float | np.integer | np.floating)
+        and 0.0 <= tempering_ess < 1.0
+    ):
+        raise ValueError(f"tempering_ess must be a float in [0, 1), got {tempering_ess!r}")
+    if (
+        isinstance(max_tempering_stages, bool)
+        or not isinstance(max_tempering_stages, int | np.integer)
+        or max_tempering_stages < 1
+    ):
+        raise ValueError(
+            f"max_tempering_stages must be an integer >= 1, got {max_tempering_stages!r}"
+        )
+    bins: tuple[int, ...] | None = None
+    if entropy_bins is not None:
+        bins = tuple(entropy_bins)
+        if len(bins) != space.dim or not all(
+            isinstance(b, int | np.integer) and not isinstance(b, bool) and b >= 1 for b in bins
+        ):
+            raise ValueError(
+                f"entropy_bins must be {space.dim} positive integers, got {entropy_bins!r}"
+            )
+        bins = tuple(int(b) for b in bins)
+    return {
+        "motion": motion,
+        "resample_threshold": float(resample_threshold),
+        "roughening": float(roughening),
+        "entropy_bins": bins,
+        "recovery_fraction": float(recovery_fraction),
+        "tempering_ess": float(tempering_ess),
+        "max_tempering_stages": int(max_tempering_stages),
+    }

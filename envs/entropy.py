@@ -52,6 +52,7 @@ __all__ = [
     "PARTICLES_PER_CELL",
     "TAIL",
     "adaptive_histogram_entropy",
+    "adaptive_histogram_entropy_rows",
     "fixed_grid_entropy",
     "grid_cell_index",
 ]
@@ -89,33 +90,31 @@ def _cell_entropy(
     ``[low, low + width]`` (:func:`grid_cell_index`), and the number of occupied cells."""
     flat = grid_cell_index(coords, low, width, bins)
     mass = np.bincount(flat, weights=weights, minlength=int(np.prod(bins)))
+    return _plug_in(mass)
+
+
+def _plug_in(mass: FloatArray) -> tuple[float, int]:
+    """``-sum P_c log P_c`` of the non-empty cells of ``mass`` (renormalised), and their count."""
     mass = mass[mass > 0]
     mass = mass / mass.sum()
     return float(-np.dot(mass, np.log(mass))), int(mass.size)
 
 
-def _unroll_periodic(column: FloatArray) -> FloatArray:
-    """Angles in ``[0, 1)`` shifted so that the largest gap between them is at the wrap."""
-    ordered = np.sort(column)
-    gaps = np.diff(np.concatenate([ordered, ordered[:1] + 1.0]))
-    start = ordered[(int(np.argmax(gaps)) + 1) % ordered.size]
-    return np.mod(column - start, 1.0)
+def _unroll_periodic(columns: FloatArray) -> FloatArray:
+    """``(K, N)`` angles in ``[0, 1)``, each row shifted so that the largest gap between its
+    angles is at the wrap."""
+    ordered = np.sort(columns, axis=1)
+    gaps = np.diff(np.concatenate([ordered, ordered[:, :1] + 1.0], axis=1), axis=1)
+    first = (np.argmax(gaps, axis=1) + 1) % ordered.shape[1]
+    start = ordered[np.arange(ordered.shape[0]), first]
+    return np.mod(columns - start[:, None], 1.0)
 
 
 def _weighted_box(scaled: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """``(d,)`` weighted ``TAIL`` and ``1 - TAIL`` quantiles of every column of ``scaled``: the
-    smallest value whose cumulative weight (in ascending order) reaches that fraction."""
+    """``(d,)`` weighted ``TAIL`` and ``1 - TAIL`` quantiles of every column of ``(N, d)``
+    ``scaled``: the smallest value whose cumulative weight (ascending) reaches that fraction."""
     n, d = scaled.shape
     columns = np.arange(d)
-    if np.all(weights == weights[0]):
-        # equal weights (after resampling): the cumulative weights of any order are the same,
-        # and a selection finds the same order statistics as the full sort
-        cumulative = np.cumsum(np.full(n, weights[0]))
-        low_k, high_k = (
-            min(int(np.argmax(cumulative >= q * cumulative[-1])), n - 1) for q in (TAIL, 1 - TAIL)
-        )
-        ordered = np.partition(scaled, (low_k, high_k), axis=0)
-        return ordered[low_k], ordered[high_k]
     order = np.argsort(scaled, axis=0, kind="stable")
     cumulative = np.cumsum(weights[order], axis=0)
     low_k, high_k = (
@@ -125,10 +124,84 @@ def _weighted_box(scaled: FloatArray, weights: FloatArray) -> tuple[FloatArray, 
     return scaled[order[low_k, columns], columns], scaled[order[high_k, columns], columns]
 
 
+def _equal_weight_ranks(n: int, weight: float) -> tuple[int, int]:
+    """Ranks of the ``TAIL`` and ``1 - TAIL`` quantiles of ``n`` particles of equal ``weight``."""
+    cumulative = np.cumsum(np.full(n, weight))
+    low_k, high_k = (
+        min(int(np.argmax(cumulative >= q * cumulative[-1])), n - 1) for q in (TAIL, 1 - TAIL)
+    )
+    return low_k, high_k
+
+
+def _weighted_boxes(scaled: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """``(K, d)`` weighted quantile boxes of ``(K, N, d)`` particles. Rows of equal weights
+    (after resampling) share their quantile ranks and take one selection for all of them (the
+    order statistics of any order are the same); the others are sorted row by row."""
+    k_rows, n, d = scaled.shape
+    box_low = np.empty((k_rows, d))
+    box_high = np.empty((k_rows, d))
+    equal = np.all(weights == weights[:, :1], axis=1)
+    for weight in np.unique(weights[equal, 0]):
+        rows = np.flatnonzero(equal & (weights[:, 0] == weight))
+        low_k, high_k = _equal_weight_ranks(n, float(weight))
+        ordered = np.partition(scaled[rows], (low_k, high_k), axis=1)
+        box_low[rows], box_high[rows] = ordered[:, low_k], ordered[:, high_k]
+    for row in np.flatnonzero(~equal):
+        box_low[row], box_high[row] = _weighted_box(scaled[row], weights[row])
+    return box_low, box_high
+
+
+def adaptive_histogram_entropy_rows(
+    particles: FloatArray, weights: FloatArray, space: TargetSpace
+) -> FloatArray:
+    """Differential entropy on a grid adapted to the particles (module docstring), for ``K``
+    beliefs at once.
+
+    Args:
+        particles: ``(K, N, d)`` particles inside ``space``.
+        weights: ``(K, N)`` normalised weights.
+        space: The target space (domain widths, periodic coordinates).
+
+    Returns:
+        ``(K,)`` entropies in nats (finite; at least about
+        ``log(vol(Theta)) + d log(BOX_FLOOR) - log(ESS / PARTICLES_PER_CELL)``).
+    """
+    k_rows, n, d = particles.shape
+    low, high = space.low_array, space.high_array
+    width = high - low
+    scaled = (particles - low) / width
+    for j in np.flatnonzero(np.asarray(space.periodic, dtype=bool)):
+        scaled[:, :, j] = _unroll_periodic(np.mod(scaled[:, :, j], 1.0))
+    box_low, box_high = _weighted_boxes(scaled, weights)
+    side = np.maximum(box_high - box_low, BOX_FLOOR)
+    ess = np.array([1.0 / np.dot(w, w) for w in weights])
+    bins = np.empty((k_rows, d), dtype=np.int64)
+    for row in range(k_rows):  # scalar arithmetic per belief, as in the one-belief estimate
+        n_cells = max(1.0, float(ess[row]) / PARTICLES_PER_CELL)
+        cube = (float(np.prod(side[row])) / n_cells) ** (1.0 / d)
+        bins[row] = np.maximum(1, np.round(side[row] / cube)).astype(np.int64)
+    cell = np.floor((scaled - box_low[:, None, :]) * (bins / side)[:, None, :]).astype(np.int64)
+    np.clip(cell, 0, bins[:, None, :] - 1, out=cell)
+    strides = np.cumprod(
+        np.concatenate([bins[:, 1:], np.ones((k_rows, 1), np.int64)], axis=1)[:, ::-1], axis=1
+    )[:, ::-1]
+    n_cells_per_row = np.prod(bins, axis=1)
+    offsets = np.concatenate([[0], np.cumsum(n_cells_per_row)])
+    flat = np.einsum("knd,kd->kn", cell, strides) + offsets[:-1, None]
+    mass = np.bincount(flat.ravel(), weights=weights.ravel(), minlength=int(offsets[-1]))
+    result = np.empty(k_rows)
+    for row in range(k_rows):
+        plug_in, occupied = _plug_in(mass[offsets[row] : offsets[row + 1]])
+        log_cell_volume = float(np.sum(np.log(side[row] / bins[row]) + np.log(width)))
+        result[row] = plug_in + log_cell_volume + (occupied - 1) / (2.0 * float(ess[row]))
+    return result
+
+
 def adaptive_histogram_entropy(
     particles: FloatArray, weights: FloatArray, space: TargetSpace
 ) -> float:
-    """Differential entropy on a grid adapted to the particles (module docstring).
+    """Differential entropy on a grid adapted to the particles (module docstring): one belief of
+    :func:`adaptive_histogram_entropy_rows`.
 
     Args:
         particles: ``(N, d)`` particles inside ``space``.
@@ -136,24 +209,12 @@ def adaptive_histogram_entropy(
         space: The target space (domain widths, periodic coordinates).
 
     Returns:
-        Entropy in nats (finite; at least about
-        ``log(vol(Theta)) + d log(BOX_FLOOR) - log(ESS / PARTICLES_PER_CELL)``).
+        Entropy in nats.
     """
-    low, high = space.low_array, space.high_array
-    width = high - low
-    scaled = (particles - low) / width
-    periodic = np.asarray(space.periodic, dtype=bool)
-    for j in np.flatnonzero(periodic):
-        scaled[:, j] = _unroll_periodic(np.mod(scaled[:, j], 1.0))
-    box_low, box_high = _weighted_box(scaled, weights)
-    side = np.maximum(box_high - box_low, BOX_FLOOR)
-    ess = float(1.0 / np.dot(weights, weights))
-    n_cells = max(1.0, ess / PARTICLES_PER_CELL)
-    cube = (float(np.prod(side)) / n_cells) ** (1.0 / side.size)
-    bins = np.maximum(1, np.round(side / cube)).astype(np.int64)
-    plug_in, occupied = _cell_entropy(scaled, weights, box_low, side, bins)
-    log_cell_volume = float(np.sum(np.log(side / bins) + np.log(width)))
-    return plug_in + log_cell_volume + (occupied - 1) / (2.0 * ess)
+    rows = adaptive_histogram_entropy_rows(
+        np.asarray(particles, dtype=np.float64)[None], np.asarray(weights)[None], space
+    )
+    return float(rows[0])
 
 
 def fixed_grid_entropy(

@@ -28,6 +28,7 @@ __all__ = [
     "normalize_weights",
     "stratified_resample",
     "systematic_resample",
+    "systematic_resample_rows",
 ]
 
 
@@ -92,6 +93,34 @@ def systematic_resample(
     count = _check_args(rng, n, w.shape[0])
     points = (rng.random() + np.arange(count)) / max(count, 1)
     return _invert_cdf(w, points)
+
+
+def systematic_resample_rows(weights: FloatArray, uniforms: FloatArray) -> IntArray:
+    """Systematic resampling of ``K`` weight vectors at once, one shared uniform per row.
+
+    Row ``k`` is exactly :func:`systematic_resample` of ``weights[k]`` with ``rng.random()``
+    returning ``uniforms[k]`` (same arithmetic, row by row).
+
+    Args:
+        weights: ``(K, N)`` non-negative weights with positive row sums (normalised here).
+        uniforms: ``(K,)`` uniforms in ``[0, 1)``.
+
+    Returns:
+        ``(K, N)`` int64 ancestor indices, each row sorted ascending.
+    """
+    w = np.asarray(weights, dtype=np.float64)
+    if w.ndim != 2 or w.shape[1] == 0 or np.shape(uniforms) != (w.shape[0],):
+        raise ValueError(
+            f"weights must be (K, N) and uniforms (K,), got {w.shape} and {np.shape(uniforms)}"
+        )
+    n = w.shape[1]
+    cdf = np.cumsum(w / w.sum(axis=1, keepdims=True), axis=1)
+    cdf[:, -1] = 1.0  # guard against round-off leaving the last point beyond the total
+    points = (np.asarray(uniforms, dtype=np.float64)[:, None] + np.arange(n)) / n
+    idx = np.empty(w.shape, dtype=np.int64)
+    for k in range(w.shape[0]):  # numpy has no row-wise searchsorted; one call per row
+        idx[k] = np.searchsorted(cdf[k], points[k], side="right")
+    return np.minimum(idx, n - 1)
 
 
 def stratified_resample(

@@ -1,0 +1,572 @@
+"""``K`` particle-filter beliefs stepped at once: the implementation of the filter.
+
+The filter itself (predict, Bayes update with progressive correction and degeneracy recovery,
+systematic resampling with Gordon roughening, the estimates) is documented in
+:mod:`infoseek.envs.belief`; :class:`~infoseek.envs.belief.ParticleBelief` is one row of a
+:class:`BeliefBatch`. Here the ``K`` beliefs (every agent of every environment of a batch) are
+arrays: particles ``(K, N, d)``, normalised log-weights and weights ``(K, N)``, and each belief
+keeps its own ``numpy.random.Generator``.
+
+Row independence. Row ``k`` of every result is bit-for-bit what a single belief with row
+``k``'s particles, weights and generator computes: elementwise arithmetic and reductions
+along the particle axis are done on the whole ``(K, N)`` array (numpy reduces each row the
+same way as a 1-D array), while the few operations whose rounding depends on how they are
+batched (BLAS dot products and matrix-vector products, compacted sums, ``searchsorted``) and
+every random draw run row by row. The rare stages that depend on one belief's data
+(progressive correction, degeneracy recovery, the weighted-quantile sort of unequal weights)
+run on that row alone. A batch of ``K`` beliefs therefore gives the same numbers as ``K``
+separate beliefs (test ``tests/test_belief_batch.py``), whatever ``K``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from infoseek.envs.entropy import adaptive_histogram_entropy_rows, fixed_grid_entropy
+from infoseek.envs.entropy import grid_cell_index
+from infoseek.envs.resampling import systematic_resample, systematic_resample_rows
+from infoseek.envs.targets import StationaryTarget, TargetMotion, TargetSpace
+from infoseek.envs.targets import reflect_into_interval
+
+FloatArray = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
+
+__all__ = [
+    "DEGENERATE_LOG_EVIDENCE",
+    "SPREAD_FLOOR",
+    "TEMPERING_BISECTION_STEPS",
+    "TEMPERING_MOVE_SCALE",
+    "TEMPERING_MOVE_SHRINK",
+    "TEMPERING_MOVE_SWEEPS",
+    "BatchUpdate",
+    "BeliefBatch",
+    "logsumexp_rows",
+]
+
+#: Log evidence below which an update counts as degenerate (exp underflows in float64).
+DEGENERATE_LOG_EVIDENCE = -700.0
+#: Roughening spread floor, as a fraction of each coordinate's domain width.
+SPREAD_FLOOR = 1e-3
+#: Bisection steps for a tempering exponent (on ``log lambda`` over 60 nats below the remainder).
+TEMPERING_BISECTION_STEPS = 40
+#: Metropolis sweeps of the tempering move: the first proposes Gaussian steps of
+#: ``TEMPERING_MOVE_SCALE`` times the particles' per-coordinate std, each next one
+#: ``TEMPERING_MOVE_SHRINK`` times smaller.
+TEMPERING_MOVE_SWEEPS = 5
+TEMPERING_MOVE_SCALE = 1.0
+TEMPERING_MOVE_SHRINK = 0.3
+#: Smallest tempering exponent tried, relative to the remaining exponent (``exp(-60)``).
+_LOG_MIN_LAMBDA = -60.0
+
+
+def logsumexp_rows(values: FloatArray) -> FloatArray:
+    """``(K,)`` ``log sum_n exp(values[k, n])`` of ``(K, N)`` values, computed per row as
+    ``max + log(sum(exp(values - max)))`` (``-inf`` for a row of ``-inf``, ``+inf`` if any)."""
+    peak = values.max(axis=1)
+    finite = np.isfinite(peak)
+    shift = np.where(finite, peak, 0.0)
+    with np.errstate(invalid="ignore"):
+        sums = np.exp(values - shift[:, None]).sum(axis=1)
+    out = peak.copy()
+    for k in np.flatnonzero(finite):  # math.log, as the scalar log evidence always used
+        out[k] = peak[k] + math.log(float(sums[k]))
+    return out
+
+
+def _logsumexp(values: FloatArray) -> float:
+    return float(logsumexp_rows(values[None])[0])
+
+
+def _log_ess_rows(log_weights: FloatArray) -> FloatArray:
+    """``(K,)`` ``log ESS`` of unnormalised ``(K, N)`` log-weights."""
+    return 2.0 * logsumexp_rows(log_weights) - logsumexp_rows(2.0 * log_weights)
+
+
+def _log_ess(log_weights: FloatArray) -> float:
+    return float(_log_ess_rows(log_weights[None])[0])
+
+
+@dataclass(frozen=True)
+class BatchUpdate:
+    """Outcome of :meth:`BeliefBatch.update`, one entry per belief (fields as
+    :class:`~infoseek.envs.belief.BeliefUpdate`).
+
+    Attributes:
+        recovered: ``(K,)`` whether the degeneracy recovery ran.
+        log_evidence: ``(K,)`` log evidence of the observations (0 for none).
+        n_observations: ``(K,)`` observations incorporated.
+        n_stages: ``(K,)`` progressive-correction stages of the update kept.
+    """
+
+    recovered: BoolArray
+    log_evidence: FloatArray
+    n_observations: NDArray[np.int64]
+    n_stages: NDArray[np.int64]
+
+
+def _angle_scale(space: TargetSpace) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Indices of periodic dims, their lows, periods and the harmonic (2 axial, 1 circular)."""
+    idx = np.flatnonzero(space.periodic_mask)
+    low = space.low_array[idx]
+    period = space.high_array[idx] - low
+    harmonic = np.where(space.axial_mask[idx], 2.0, 1.0)
+    return idx, low, period, harmonic
+
+
+def angle_means(space: TargetSpace, angles: FloatArray, weights: FloatArray) -> FloatArray:
+    """Circular/axial weighted means of one belief's ``(N, k)`` periodic coordinates."""
+    _, low, period, harmonic = _angle_scale(space)
+    phase = (angles - low) * (2.0 * np.pi * harmonic / period)
+    c = weights @ np.cos(phase)
+    s = weights @ np.sin(phase)
+    mean_phase = np.mod(np.arctan2(s, c), 2.0 * np.pi)
+    mean = low + mean_phase * period / (2.0 * np.pi * harmonic)
+    return np.where(mean >= low + period / harmonic, low, mean)
+
+
+class BeliefBatch:
+    """``K`` weighted particle beliefs over one target space, stepped at once.
+
+    Arguments are validated by the caller (:class:`~infoseek.envs.belief.ParticleBelief` or the
+    environment core); the meaning of every setting is documented there.
+
+    Args:
+        particles: ``(K, N, d)`` particle states inside ``space``.
+        log_weights: ``(K, N)`` normalised log-weights.
+        space: The target space.
+        rngs: ``K`` generators, one per belief.
+        motion: Target motion model of every belief's ``predict``.
+        resample_threshold: Resample when ``ESS < resample_threshold * N``.
+        roughening: Roughening constant (0 disables).
+        entropy_bins: Fixed entropy grid, or ``None`` for the adaptive one.
+        recovery_fraction: Fraction of particles replaced by prior samples on degeneracy.
+        tempering_ess: Progressive-correction floor (0 disables).
+        max_tempering_stages: Most tempering stages per update.
+    """
+
+    def __init__(
+        self,
+        particles: FloatArray,
+        log_weights: FloatArray,
+        space: TargetSpace,
+        rngs: Sequence[np.random.Generator],
+        *,
+        motion: TargetMotion,
+        resample_threshold: float,
+        roughening: float,
+        entropy_bins: tuple[int, ...] | None,
+        recovery_fraction: float,
+        tempering_ess: float,
+        max_tempering_stages: int,
+    ) -> None:
+        if particles.ndim != 3 or log_weights.shape != particles.shape[:2]:
+            raise ValueError(
+                f"particles must be (K, N, d) and log_weights (K, N), got {particles.shape} "
+                f"and {log_weights.shape}"
+            )
+        if len(rngs) != particles.shape[0]:
+            raise ValueError(
+                f"need one generator per belief ({particles.shape[0]}), got {len(rngs)}"
+            )
+        self.space = space
+        self.rngs = list(rngs)
+        self.motion = motion
+        self.resample_threshold = float(resample_threshold)
+        self.roughening = float(roughening)
+        self.entropy_bins = entropy_bins
+        self.recovery_fraction = float(recovery_fraction)
+        self.tempering_ess = float(tempering_ess)
+        self.max_tempering_stages = int(max_tempering_stages)
+        self.particles = particles
+        self.set_log_weights(log_weights)
+
+    # ------------------------------------------------------------------ state
+    @property
+    def n_beliefs(self) -> int:
+        """Number of beliefs ``K``."""
+        return int(self.particles.shape[0])
+
+    @property
+    def n_particles(self) -> int:
+        """Particles per belief ``N``."""
+        return int(self.particles.shape[1])
+
+    def set_log_weights(
+        self, log_weights: FloatArray, rows: NDArray[np.intp] | None = None
+    ) -> None:
+        """Store normalised ``(K, N)`` log-weights (or those of ``rows``) and their weights."""
+        weights = np.exp(log_weights)
+        weights = weights / weights.sum(axis=1, keepdims=True)
+        if rows is None:
+            self.log_weights, self.weights = log_weights, weights
+            return
+        self.log_weights = self.log_weights.copy()
+        self.weights = self.weights.copy()
+        self.log_weights[rows] = log_weights
+        self.weights[rows] = weights
+
+    def set_rows(
+        self, rows: NDArray[np.intp], particles: FloatArray, log_weights: FloatArray
+    ) -> None:
+        """Replace the particles and log-weights of ``rows`` (new arrays; views stay valid)."""
+        self.particles = self.particles.copy()
+        self.particles[rows] = particles
+        self.set_log_weights(log_weights, rows)
+
+    def ess(self) -> FloatArray:
+        """``(K,)`` effective sample sizes ``1 / sum w^2``."""
+        return np.array([1.0 / np.dot(w, w) for w in self.weights])
+
+    # ------------------------------------------------------------------ filter cycle
+    def predict(self, dt: float) -> None:
+        """Propagate every belief's particles with the motion model (each its own stream)."""
+        if isinstance(self.motion, StationaryTarget):
+            return  # the identity: no draw, the arrays are never mutated in place
+        moved = np.empty_like(self.particles)
+        for k, rng in enumerate(self.rngs):
+            out = np.asarray(
+                self.motion.propagate(self.particles[k], self.space, float(dt), rng),
+                dtype=np.float64,
+            )
+            if out.shape != moved.shape[1:] or not np.all(np.isfinite(out)):
+                raise ValueError(
+                    f"motion {self.motion!r} returned shape {out.shape} or non-finite states; "
+                    f"expected finite {moved.shape[1:]}"
+                )
+            moved[k] = out
+        self.particles = moved
+
+    def log_likelihoods(
+        self, sensor: Any, z: FloatArray, poses: FloatArray, received: BoolArray
+    ) -> FloatArray:
+        """``(K, N)`` summed log-likelihood of the observations each belief received.
+
+        Args:
+            sensor: The likelihood model (``log_likelihood(z, poses, particles)``).
+            z: ``(G, M, obs_dim)`` observations of ``G`` groups; belief ``k`` belongs to group
+                ``k // (K / G)`` (every agent of one environment is one group).
+            poses: ``(G, M, pose_dim)`` sensor poses.
+            received: ``(K, M)`` which of its group's observations each belief received.
+        """
+        k_rows, n, d = self.particles.shape
+        groups, m = z.shape[0], z.shape[1]
+        per = k_rows // groups
+        each = np.empty((m, k_rows, n))
+        for g in range(groups):  # one likelihood call per group, over all its beliefs
+            rows = self.particles[g * per : (g + 1) * per].reshape(per * n, d)
+            loglik = np.asarray(sensor.log_likelihood(z[g], poses[g], rows), dtype=np.float64)
+            if loglik.shape != (m, per * n):
+                raise ValueError(
+                    f"sensor {getattr(sensor, 'name', sensor)!r}: log_likelihood returned shape "
+                    f"{loglik.shape}, expected {(m, per * n)}"
+                )
+            each[:, g * per : (g + 1) * per] = loglik.reshape(m, per, n)
+        # a non-received observation adds exactly 0.0: the sum is that of the received ones
+        total = np.where(received.T[:, :, None], each, 0.0).sum(axis=0)
+        if np.any(np.isnan(total)) or np.any(total == np.inf):
+            raise ValueError(
+                f"sensor {getattr(sensor, 'name', sensor)!r}: log_likelihood returned NaN or +inf"
+            )
+        return total
+
+    def update(
+        self, sensor: Any, z: FloatArray, poses: FloatArray, received: BoolArray
+    ) -> BatchUpdate:
+        """Bayes update of every belief with the observations it received (eq. 4, eq. 14).
+
+        Args are those of :meth:`log_likelihoods`. A belief that received nothing is unchanged.
+        """
+        k_rows = self.n_beliefs
+        counts = received.sum(axis=1).astype(np.int64)
+        result = BatchUpdate(
+            recovered=np.zeros(k_rows, dtype=bool),
+            log_evidence=np.zeros(k_rows),
+            n_observations=counts.copy(),
+            n_stages=np.where(counts > 0, 1, 0).astype(np.int64),
+        )
+        live = np.flatnonzero(counts > 0)
+        if live.size == 0:
+            return result
+        loglik = self.log_likelihoods(sensor, z, poses, received)
+        full = self.log_weights + loglik
+        with np.errstate(invalid="ignore"):  # rows of -inf evidence go to the row path
+            log_z = logsumexp_rows(full)
+            accept = np.isfinite(log_z) & (log_z >= DEGENERATE_LOG_EVIDENCE) & (counts > 0)
+            if self._tempering_on() and self.max_tempering_stages > 1:
+                log_floor = math.log(self.tempering_ess) + _log_ess_rows(self.log_weights)
+                accept &= _log_ess_rows(full) >= log_floor
+        plain = np.flatnonzero(accept)
+        new_lw = full - np.where(accept, log_z, 0.0)[:, None]
+        special = [k for k in live if not accept[k]]
+        if plain.size == k_rows:
+            self.set_log_weights(new_lw)
+        elif plain.size:
+            self.set_log_weights(new_lw[plain], plain)
+        result.log_evidence[plain] = log_z[plain]
+        for k in special:  # progressive correction or recovery: that belief alone
+            g = k // (k_rows // z.shape[0])
+            mask = received[k]
+            self._update_row(k, sensor, z[g][mask], poses[g][mask], loglik[k], result)
+        return result
+
+    def _tempering_on(self) -> bool:
+        return self.tempering_ess > 0.0 and self.resample_threshold > 0.0 and self.n_particles > 1
+
+    def _update_row(
+        self,
+        k: int,
+        sensor: Any,
+        z: FloatArray,
+        poses: FloatArray,
+        loglik: FloatArray,
+        result: BatchUpdate,
+    ) -> None:
+        """The tempered update of belief ``k`` with degeneracy recovery (module docstring of
+        :mod:`infoseek.envs.belief`); writes the outcome into ``result``."""
+        rows = np.array([k])
+        particles, log_weights, log_evidence, stages = self._tempered_update(
+            k, sensor, z, poses, self.particles[k], self.log_weights[k], loglik
+        )
+        result.log_evidence[k] = log_evidence
+        if np.isfinite(log_evidence) and log_evidence >= DEGENERATE_LOG_EVIDENCE:
+            self.set_rows(rows, particles[None], log_weights[None])
+            result.n_stages[k] = stages
+            return
+        result.recovered[k] = True
+        n = self.n_particles
+        n_fresh = min(n, max(1, math.ceil(self.recovery_fraction * n)))
+        survivors = systematic_resample(self.weights[k], self.rngs[k], n - n_fresh)
+        candidate = np.concatenate(
+            [self.particles[k][survivors], self.space.sample_uniform(n_fresh, self.rngs[k])]
+        )
+        loglik = self._row_log_likelihood(sensor, z, poses, candidate)
+        particles, log_weights, retry, stages = self._tempered_update(
+            k, sensor, z, poses, candidate, np.full(n, -math.log(n)), loglik
+        )
+        if np.isfinite(retry) and retry >= DEGENERATE_LOG_EVIDENCE:
+            self.set_rows(rows, particles[None], log_weights[None])
+            result.n_stages[k] = stages
+            return
+        result.n_observations[k] = 0  # still impossible: drop them, keep the prior belief
+        result.n_stages[k] = 0
+
+    @staticmethod
+    def _row_log_likelihood(
+        sensor: Any, z: FloatArray, poses: FloatArray, particles: FloatArray
+    ) -> FloatArray:
+        loglik = np.asarray(sensor.log_likelihood(z, poses, particles), dtype=np.float64)
+        if loglik.shape != (z.shape[0], particles.shape[0]):
+            raise ValueError(
+                f"sensor {getattr(sensor, 'name', sensor)!r}: log_likelihood returned shape "
+                f"{loglik.shape}, expected {(z.shape[0], particles.shape[0])}"
+            )
+        total = loglik.sum(axis=0)
+        if np.any(np.isnan(total)) or np.any(total == np.inf):
+            raise ValueError(
+                f"sensor {getattr(sensor, 'name', sensor)!r}: log_likelihood returned NaN or +inf"
+            )
+        return total
+
+    def _tempered_update(
+        self,
+        k: int,
+        sensor: Any,
+        z: FloatArray,
+        poses: FloatArray,
+        particles: FloatArray,
+        log_weights: FloatArray,
+        loglik: FloatArray,
+    ) -> tuple[FloatArray, FloatArray, float, int]:
+        """Progressive-correction Bayes update of belief ``k``'s ``(N, d)`` particles; returns
+        ``(particles, normalised log-weights, log evidence, stages)`` (log evidence ``-inf``
+        when some stage had no particle of non-zero likelihood)."""
+        n = particles.shape[0]
+        tempering = self._tempering_on()
+        remaining, log_evidence, stage = 1.0, 0.0, 0
+        while True:
+            stage += 1
+            full = log_weights + remaining * loglik
+            log_z = _logsumexp(full)
+            if not np.isfinite(log_z):
+                return particles, log_weights, -math.inf, stage
+            log_floor = math.log(self.tempering_ess) + _log_ess(log_weights) if tempering else 0.0
+            if not tempering or stage >= self.max_tempering_stages or _log_ess(full) >= log_floor:
+                return particles, full - log_z, log_evidence + log_z, stage
+            lam = _tempering_exponent(log_weights, loglik, remaining, log_floor)
+            partial = log_weights + lam * loglik
+            log_z = _logsumexp(partial)
+            log_evidence += log_z
+            idx = systematic_resample(np.exp(partial - log_z), self.rngs[k])
+            particles, loglik = particles[idx], loglik[idx]
+            remaining -= lam
+            if self.roughening > 0.0:
+                particles, loglik = self._tempered_move(
+                    k, sensor, z, poses, particles, loglik, 1.0 - remaining
+                )
+            log_weights = np.full(n, -math.log(n))
+
+    def _tempered_move(
+        self,
+        k: int,
+        sensor: Any,
+        z: FloatArray,
+        poses: FloatArray,
+        particles: FloatArray,
+        loglik: FloatArray,
+        exponent: float,
+    ) -> tuple[FloatArray, FloatArray]:
+        """``TEMPERING_MOVE_SWEEPS`` likelihood-guarded Metropolis sweeps of belief ``k``'s
+        resampled particles (proposal: the roughening jitter at a shrinking scale)."""
+        particles, loglik = particles.copy(), loglik.copy()
+        scale = TEMPERING_MOVE_SCALE
+        for _ in range(TEMPERING_MOVE_SWEEPS):
+            proposal = self.roughen(particles[None], [self.rngs[k]], move_scale=scale)[0]
+            proposal_loglik = self._row_log_likelihood(sensor, z, poses, proposal)
+            log_u = np.log(self.rngs[k].random(particles.shape[0]))
+            with np.errstate(invalid="ignore"):  # loglik is finite: no -inf - -inf
+                accept = log_u < exponent * (proposal_loglik - loglik)
+            particles[accept] = proposal[accept]
+            loglik[accept] = proposal_loglik[accept]
+            scale *= TEMPERING_MOVE_SHRINK
+        return particles, loglik
+
+    def resample_if_needed(self) -> BoolArray:
+        """Systematic resampling plus roughening of every belief whose
+        ``ESS < resample_threshold * N`` (uniform weights never); returns ``(K,)`` which did."""
+        k_rows, n = self.n_beliefs, self.n_particles
+        if self.resample_threshold <= 0.0 or n == 1:
+            return np.zeros(k_rows, dtype=bool)
+        need = self.ess() < self.resample_threshold * n * (1.0 - 1e-9)
+        rows = np.flatnonzero(need)
+        if rows.size == 0:
+            return need
+        uniforms = np.array([self.rngs[k].random() for k in rows])
+        idx = systematic_resample_rows(self.weights[rows], uniforms)
+        particles = np.take_along_axis(self.particles[rows], idx[:, :, None], axis=1)
+        if self.roughening > 0.0:
+            particles = self.roughen(particles, [self.rngs[k] for k in rows])
+        self.set_rows(rows, particles, np.full((rows.size, n), -math.log(n)))
+        return need
+
+    def roughen(
+        self,
+        particles: FloatArray,
+        rngs: Sequence[np.random.Generator],
+        move_scale: float | None = None,
+    ) -> FloatArray:
+        """Gordon roughening of ``(R, N, d)`` equally weighted particle sets, row ``r`` drawing
+        from ``rngs[r]`` (see :mod:`infoseek.envs.belief`). With ``move_scale`` the jitter is a
+        tempering-move proposal: ``move_scale`` times each coordinate's standard deviation."""
+        space = self.space
+        r_rows, n, d = particles.shape
+        columns = np.ascontiguousarray(particles.transpose(0, 2, 1))  # (R, d, N)
+        idx, low, period, harmonic = _angle_scale(space)
+        if move_scale is None:
+            spread = columns.max(axis=2) - columns.min(axis=2)
+        else:
+            spread = columns.std(axis=2)
+        if idx.size:
+            uniform = np.full(n, 1.0 / n)
+            center = np.stack([angle_means(space, p[:, idx], uniform) for p in particles])
+            half = period / (2.0 * harmonic)  # residuals live in [-half, half)
+            resid = np.mod(
+                columns[:, idx] - center[:, :, None] + half[:, None], 2.0 * half[:, None]
+            )
+            if move_scale is None:
+                spread[:, idx] = resid.max(axis=2) - resid.min(axis=2)
+            else:
+                spread[:, idx] = resid.std(axis=2)
+        width = space.high_array - space.low_array
+        if move_scale is None:
+            # floor: a fully collapsed set (spread 0) would otherwise never be separated again
+            spread = np.maximum(spread, SPREAD_FLOOR * width)
+            std = self.roughening * spread * n ** (-1.0 / d)
+        else:
+            std = move_scale * np.maximum(spread, 1e-12 * width)
+        noise = np.stack([rng.standard_normal((n, d)).T for rng in rngs])
+        jittered = columns + std[:, :, None] * noise
+        low_all, high_all = space.low_array, space.high_array
+        for j in np.flatnonzero(~space.periodic_mask):  # loop over coordinates, not particles
+            row = jittered[:, j]
+            out = (row < low_all[j]) | (row > high_all[j])
+            if out.any():
+                row[out] = reflect_into_interval(row[out], low_all[j], high_all[j])
+        result = np.ascontiguousarray(jittered.transpose(0, 2, 1))
+        if idx.size:
+            result = space.wrap(result)
+        return result
+
+    # ------------------------------------------------------------------ estimates
+    def mmse(self) -> FloatArray:
+        """``(K, d)`` MMSE estimates (eq. 12; circular/axial means of periodic angles)."""
+        est = np.stack([w @ p for w, p in zip(self.weights, self.particles, strict=True)])
+        idx = np.flatnonzero(self.space.periodic_mask)
+        if idx.size:
+            for k in range(self.n_beliefs):
+                est[k, idx] = angle_means(self.space, self.particles[k][:, idx], self.weights[k])
+        return est
+
+    def mass_within(self, radius: float, centers: FloatArray) -> FloatArray:
+        """``(K,)`` posterior mass whose position lies within ``radius`` of ``(K, >= 2)``
+        ``centers`` (their position part)."""
+        diff = self.particles[:, :, :2] - centers[:, None, :2]
+        inside = np.einsum("kij,kij->ki", diff, diff) <= float(radius) ** 2
+        return np.array(
+            [min(1.0, w[mask].sum()) for w, mask in zip(self.weights, inside, strict=True)]
+        )
+
+    def entropy(self) -> FloatArray:
+        """``(K,)`` histogram entropy estimates (eq. 6; :mod:`infoseek.envs.entropy`)."""
+        if self.entropy_bins is None:
+            return adaptive_histogram_entropy_rows(self.particles, self.weights, self.space)
+        return np.array(
+            [
+                fixed_grid_entropy(p, w, self.space, self.entropy_bins)
+                for p, w in zip(self.particles, self.weights, strict=True)
+            ]
+        )
+
+    def mass_grid(self, shape: tuple[int, int]) -> FloatArray:
+        """``(K, gx, gy)`` posterior position mass on a coarse grid over the position box."""
+        gx, gy = shape
+        k_rows, n = self.n_beliefs, self.n_particles
+        low = self.space.low_array[[0, 1]]
+        width = self.space.high_array[[0, 1]] - low
+        cells = gx * gy
+        flat = (
+            grid_cell_index(
+                self.particles[:, :, :2].reshape(k_rows * n, 2), low, width, np.array([gx, gy])
+            ).reshape(k_rows, n)
+            + (cells * np.arange(k_rows))[:, None]
+        )
+        mass = np.bincount(flat.ravel(), weights=self.weights.ravel(), minlength=k_rows * cells)
+        mass = mass.reshape(k_rows, cells)
+        return (mass / mass.sum(axis=1, keepdims=True)).reshape(k_rows, gx, gy)
+
+
+def _tempering_exponent(
+    log_weights: FloatArray, loglik: FloatArray, remaining: float, log_floor: float
+) -> float:
+    """Largest ``lambda`` in ``(0, remaining]`` with ``log ESS(lw + lambda L) >= log_floor``.
+
+    Bisection on ``log lambda`` over ``[log remaining - 60, log remaining]``; if even the
+    smallest exponent leaves the ESS below the floor (e.g. particles of zero likelihood), that
+    smallest exponent is returned.
+    """
+    hi = math.log(remaining)
+    lo = hi + _LOG_MIN_LAMBDA
+    if _log_ess(log_weights + math.exp(lo) * loglik) < log_floor:
+        return math.exp(lo)
+    for _ in range(TEMPERING_BISECTION_STEPS):
+        mid = 0.5 * (lo + hi)
+        if _log_ess(log_weights + math.exp(mid) * loglik) >= log_floor:
+            lo = mid
+        else:
+            hi = mid
+    return math.exp(lo)
