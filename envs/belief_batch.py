@@ -28,11 +28,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from infoseek.envs.entropy import adaptive_histogram_entropy_rows, fixed_grid_entropy
-from infoseek.envs.entropy import grid_cell_index
+from infoseek.envs.entropy import (
+    adaptive_histogram_entropy_rows,
+    fixed_grid_entropy,
+    grid_cell_index,
+)
 from infoseek.envs.resampling import systematic_resample, systematic_resample_rows
-from infoseek.envs.targets import StationaryTarget, TargetMotion, TargetSpace
-from infoseek.envs.targets import reflect_into_interval
+from infoseek.envs.targets import StationaryTarget, TargetMotion, TargetSpace, reflect_into_interval
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
