@@ -79,10 +79,9 @@ first seed; a first reset without a seed uses OS entropy.
 
 from __future__ import annotations
 
-import inspect
-import math
+import copy
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any
 
 import gymnasium
@@ -91,22 +90,27 @@ from numpy.typing import NDArray
 from pettingzoo import ParallelEnv
 
 from infoseek.envs.belief import BeliefView, ParticleBelief
-from infoseek.envs.sensors import make_sensor
-from infoseek.envs.sensors.base import Sensor
-from infoseek.envs.spaces import observation_layout, position_box, state_layout
-from infoseek.envs.targets import TargetMotion, TargetSpace, make_target_motion
-from infoseek.envs.vehicles import make_vehicle
-from infoseek.envs.vehicles.base import Vehicle
+from infoseek.envs.config import (
+    MIN_PARTICLES,
+    SearchConfig,
+    clustered_start_positions,
+    pairwise_distances,
+    separation_violations,
+)
+from infoseek.envs.core import SearchCore
 
 FloatArray = NDArray[np.float64]
 ObsArray = NDArray[np.float32]
 
-ACTION_TYPES = ("continuous", "discrete")
-#: Fewest particles per belief: fewer cannot represent the uniform prior (a 40 x 40 domain
-#: sampled by 100 particles already leaves ~4 units between neighbours), and the posterior-mass
-#: and localisation metrics of a belief of a handful of particles are meaningless.
-MIN_PARTICLES = 100
-RENDER_MODES = (None, "rgb_array", "human")
+__all__ = [
+    "INFO_KEYS",
+    "MIN_PARTICLES",
+    "InformationSeekingEnv",
+    "clustered_start_positions",
+    "pairwise_distances",
+    "separation_violations",
+]
+
 #: Keys of ``infos[agent]`` (at ``reset`` and at every ``step``); with ``belief_in_infos=True``
 #: also ``"belief"``.
 INFO_KEYS = (
@@ -120,145 +124,23 @@ INFO_KEYS = (
 )
 
 
-# ----------------------------------------------------------------------------- validation helpers
-def _check_int(value: object, name: str, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise TypeError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    if int(value) < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value}")
-    return int(value)
-
-
-def _check_float(
-    value: object,
-    name: str,
-    *,
-    low: float = -math.inf,
-    high: float = math.inf,
-    low_open: bool = False,
-    allow_inf: bool = False,
-) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise TypeError(f"{name} must be a real number, got {value!r}")
-    number = float(value)
-    bound = f"{'(' if low_open else '['}{low}, {high}]"
-    if math.isnan(number) or (math.isinf(number) and not allow_inf):
-        raise ValueError(f"{name} must be a finite number in {bound}, got {number}")
-    if number < low or number > high or (low_open and number == low):
-        raise ValueError(f"{name} must lie in {bound}, got {number}")
-    return number
-
-
-def _check_kwargs(value: object, name: str) -> dict[str, Any]:
-    if value is None:
-        return {}
-    if not isinstance(value, Mapping):
-        raise TypeError(f"{name} must be a dict of keyword arguments or None, got {value!r}")
-    return dict(value)
-
-
 def _readonly(array: np.ndarray) -> np.ndarray:
     array.setflags(write=False)
     return array
 
 
-def clustered_start_positions(n_agents: int, center: Sequence[float], spacing: float) -> FloatArray:
-    """Positions of a compact square-ish grid of vehicles (the paper's close initial cluster).
-
-    Args:
-        n_agents: Number of vehicles ``A``.
-        center: ``(2,)`` centre of the cluster.
-        spacing: Distance between grid neighbours.
-
-    Returns:
-        ``(A, 2)`` positions, row-major on a ``ceil(sqrt(A))``-column grid centred on ``center``.
-    """
-    n_cols = math.ceil(math.sqrt(n_agents))
-    n_rows = math.ceil(n_agents / n_cols)
-    index = np.arange(n_agents)
-    cols = index % n_cols - (n_cols - 1) / 2.0
-    rows = index // n_cols - (n_rows - 1) / 2.0
-    return np.asarray(center, dtype=np.float64) + spacing * np.stack([cols, rows], axis=-1)
-
-
-def pairwise_distances(positions: FloatArray) -> FloatArray:
-    """``(A, A)`` Euclidean distances between ``(A, 2)`` positions."""
-    diff = positions[:, None, :] - positions[None, :, :]
-    return np.sqrt(np.einsum("ijk,ijk->ij", diff, diff))
-
-
-def separation_violations(positions: FloatArray, min_separation: float) -> NDArray[np.int64]:
-    """Per-agent count of violated pairs of eq. 2 (distance strictly below ``min_separation``).
-
-    Args:
-        positions: ``(A, 2)`` vehicle positions.
-        min_separation: The minimum separation :math:`\\bar d`.
-
-    Returns:
-        ``(A,)`` number of other vehicles closer than ``min_separation`` to each vehicle.
-    """
-    close = pairwise_distances(positions) < min_separation
-    np.fill_diagonal(close, False)
-    return close.sum(axis=1).astype(np.int64)
-
-
 class InformationSeekingEnv(ParallelEnv):
     """Parallel PettingZoo environment: a team of vehicles searching for one target.
 
-    Every argument is keyword-only; an unknown keyword raises ``ValueError`` listing the valid
-    ones. The versioned modules document their defaults in their manuals.
+    A view of a :class:`~infoseek.envs.core.SearchCore` with one environment: the simulation,
+    filtering and reward are the core's; this class turns its arrays into PettingZoo's
+    per-agent dicts, checks the actions and draws the frames.
 
     Args:
-        sensor: Sensor registry name (``"bearing"``, ``"beacon"``, ``"range"``) or instance.
-        sensor_kwargs: Constructor arguments when ``sensor`` is a name (e.g. ``{"sigma": 0.1}``).
-        vehicle: Vehicle registry name (``"airplane"``, ``"quadrotor"``) or instance.
-        vehicle_kwargs: Constructor arguments when ``vehicle`` is a name.
-        target_space: A :class:`TargetSpace`, ``"planar"``, ``"planar_with_orientation"`` or
-            ``None`` (chosen from the sensor's ``target_dim``: 2 -> planar, 3 -> planar with
-            orientation). Its ``dim`` must equal the sensor's ``target_dim``.
-        domain_size: ``(width, height)`` of the search domain in distance units, used when the
-            space is built by name (default ``(40, 40)``); must be ``None`` with an instance.
-        target_motion: Target motion registry name (``"stationary"``, ``"random_walk"``) or
-            instance; the same model is used by every agent's belief ``predict``.
-        target_motion_kwargs: Constructor arguments when ``target_motion`` is a name.
-        n_agents: Number of vehicles ``A >= 1``.
-        n_particles: Particles per agent belief, ``N >= MIN_PARTICLES`` (100).
-        max_cycles: Steps before truncation (>= 1). May be reassigned between episodes.
-        dt: Time step in seconds (> 0).
-        min_separation: :math:`\\bar d` of eq. 2 in distance units (>= 0).
-        start_center: ``(2,)`` centre of the initial cluster.
-        start_spacing: Grid spacing of the initial cluster; ``None`` means
-            ``max(2.0, 2 * min_separation)``. Must exceed ``min_separation``.
-        start_positions: Explicit ``(A, 2)`` initial positions (overrides the cluster); every
-            pair must be at least ``min_separation`` apart and inside the domain.
-        action_type: ``"continuous"`` (a Box of the vehicle's control bounds; values outside are
-            clipped) or ``"discrete"`` (``Discrete(k**control_dim)`` over the grid
-            :attr:`discrete_controls`).
-        n_discrete_actions: ``k >= 2`` evenly spaced controls per control axis (discrete only).
-        separation_penalty: Reward subtracted per violated pair per step (>= 0).
-        resample_threshold: Belief resampling threshold on ``ESS / N`` in ``[0, 1]``.
-        roughening: Belief roughening factor (>= 0; 0 disables).
-        tempering_ess: Belief progressive-correction floor in ``[0, 1)`` (0 disables; see
-            :mod:`infoseek.envs.belief`).
-        filter_max_snr: Filter noise floor (module docstring): ``None`` evaluates the exact
-            likelihood; a float ``c > 0`` makes every belief update (and the planners) use
-            ``sensor.with_max_snr(c)`` (the sensor must offer it). The model the beliefs use is
-            the attribute ``filter_sensor`` (the sensor itself when ``None``).
-        entropy_bins: Histogram grid of the belief entropy estimate (``None``: belief default).
-        belief_grid: ``(gx, gy)`` coarse belief-mass grid in the observation.
-        localization_radius: Radius (distance units, > 0) of the posterior-mass criterion.
-        localization_mass: Mass within ``localization_radius`` of the MMSE estimate that counts
-            as localised, in ``(0, 1]``.
-        terminate_on_localization: Terminate every agent once *every* agent's belief is
-            localised (``posterior_mass >= localization_mass``).
-        comm_range: Distance up to which observations are shared (>= 0, ``inf`` = everywhere).
-        message_loss: Probability in ``[0, 1]`` that a message between two agents is lost.
-        belief_in_infos: Also put each agent's :class:`BeliefView` in ``infos[agent]["belief"]``
-            (what the scripted planners read). Off by default, so that infos hold only numbers
-            and numpy arrays (what RL frameworks can batch); :meth:`belief` returns the view
-            either way.
-        render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
-        name: Environment name reported in ``metadata["name"]``.
+        **config: Every keyword of :class:`~infoseek.envs.config.SearchConfig` (its docstring
+            lists them; an unknown one raises ``ValueError`` listing the valid ones). Its
+            validated settings are readable as attributes of the environment (``env.sensor``,
+            ``env.n_agents``, ``env.filter_sensor``, ...).
     """
 
     metadata: dict[str, Any] = {
@@ -268,315 +150,54 @@ class InformationSeekingEnv(ParallelEnv):
         "is_parallelizable": True,
     }
 
-    def __init__(
-        self,
-        *,
-        sensor: str | Sensor = "bearing",
-        sensor_kwargs: Mapping[str, Any] | None = None,
-        vehicle: str | Vehicle = "airplane",
-        vehicle_kwargs: Mapping[str, Any] | None = None,
-        target_space: TargetSpace | str | None = None,
-        domain_size: tuple[float, float] | None = None,
-        target_motion: str | TargetMotion = "stationary",
-        target_motion_kwargs: Mapping[str, Any] | None = None,
-        n_agents: int = 4,
-        n_particles: int = 2000,
-        max_cycles: int = 60,
-        dt: float = 1.0,
-        min_separation: float = 1.0,
-        start_center: tuple[float, float] = (5.0, 5.0),
-        start_spacing: float | None = None,
-        start_positions: Sequence[Sequence[float]] | FloatArray | None = None,
-        action_type: str = "continuous",
-        n_discrete_actions: int = 5,
-        separation_penalty: float = 1.0,
-        resample_threshold: float = 1.0,
-        roughening: float = 0.2,
-        tempering_ess: float = 0.1,
-        filter_max_snr: float | None = None,
-        entropy_bins: tuple[int, ...] | None = None,
-        belief_grid: tuple[int, int] = (8, 8),
-        localization_radius: float = 1.0,
-        localization_mass: float = 0.9,
-        terminate_on_localization: bool = False,
-        comm_range: float = math.inf,
-        message_loss: float = 0.0,
-        belief_in_infos: bool = False,
-        render_mode: str | None = None,
-        name: str = "information_seeking",
-        **unknown: Any,
-    ) -> None:
-        if unknown:
-            valid = sorted(self.config_keys())
-            raise ValueError(
-                f"unknown configuration key(s) {sorted(unknown)}; valid keys are {valid}"
-            )
-
-        # ---- components
-        self.sensor: Sensor = make_sensor(sensor, **_check_kwargs(sensor_kwargs, "sensor_kwargs"))
-        self.vehicle: Vehicle = make_vehicle(
-            vehicle, **_check_kwargs(vehicle_kwargs, "vehicle_kwargs")
-        )
-        self.target_motion: TargetMotion = make_target_motion(
-            target_motion, **_check_kwargs(target_motion_kwargs, "target_motion_kwargs")
-        )
-        self.space: TargetSpace = self._build_space(target_space, domain_size)
-        if self.sensor.target_dim != self.space.dim:
-            raise ValueError(
-                f"target_space has dim {self.space.dim} but sensor {self.sensor.name!r} expects "
-                f"targets of dim {self.sensor.target_dim}"
-            )
-
-        # ---- scalars
-        self.n_agents = _check_int(n_agents, "n_agents", 1)
-        self.n_particles = _check_int(n_particles, "n_particles", MIN_PARTICLES)
-        self._max_cycles = _check_int(max_cycles, "max_cycles", 1)
-        self.dt = _check_float(dt, "dt", low=0.0, low_open=True)
-        self.min_separation = _check_float(min_separation, "min_separation", low=0.0)
-        self.separation_penalty = _check_float(separation_penalty, "separation_penalty", low=0.0)
-        self.resample_threshold = _check_float(
-            resample_threshold, "resample_threshold", low=0.0, high=1.0
-        )
-        self.roughening = _check_float(roughening, "roughening", low=0.0)
-        self.tempering_ess = _check_float(tempering_ess, "tempering_ess", low=0.0, high=1.0)
-        if self.tempering_ess >= 1.0:
-            raise ValueError(f"tempering_ess must be in [0, 1), got {tempering_ess!r}")
-        # the likelihood model every belief update uses: the sensor, or its noise-floored view
-        if filter_max_snr is None:
-            self.filter_max_snr: float | None = None
-            self.filter_sensor: Sensor = self.sensor
-        else:
-            self.filter_max_snr = _check_float(
-                filter_max_snr, "filter_max_snr", low=0.0, low_open=True
-            )
-            if not callable(getattr(self.sensor, "with_max_snr", None)):
-                raise ValueError(
-                    f"filter_max_snr needs a sensor that offers with_max_snr (e.g. 'beacon'); "
-                    f"sensor {self.sensor.name!r} does not: use filter_max_snr=None"
-                )
-            self.filter_sensor = self.sensor.with_max_snr(  # type: ignore[attr-defined]
-                self.filter_max_snr
-            )
-        self.localization_radius = _check_float(
-            localization_radius, "localization_radius", low=0.0, low_open=True
-        )
-        self.localization_mass = _check_float(
-            localization_mass, "localization_mass", low=0.0, high=1.0, low_open=True
-        )
-        if not isinstance(terminate_on_localization, bool | np.bool_):
-            raise TypeError(
-                f"terminate_on_localization must be a bool, got {terminate_on_localization!r}"
-            )
-        self.terminate_on_localization = bool(terminate_on_localization)
-        self.comm_range = _check_float(comm_range, "comm_range", low=0.0, allow_inf=True)
-        self.message_loss = _check_float(message_loss, "message_loss", low=0.0, high=1.0)
-        self.entropy_bins = None if entropy_bins is None else tuple(entropy_bins)
-        if (
-            not isinstance(belief_grid, Sequence)
-            or len(belief_grid) != 2
-            or any(isinstance(g, bool) or not isinstance(g, int | np.integer) for g in belief_grid)
-            or min(belief_grid) < 1
-        ):
-            raise ValueError(f"belief_grid must be two integers >= 1, got {belief_grid!r}")
-        self.belief_grid = (int(belief_grid[0]), int(belief_grid[1]))
-        if render_mode not in RENDER_MODES:
-            raise ValueError(f"render_mode must be one of {RENDER_MODES}, got {render_mode!r}")
-        self.render_mode = render_mode
-        if not isinstance(belief_in_infos, bool | np.bool_):
-            raise TypeError(f"belief_in_infos must be True or False, got {belief_in_infos!r}")
-        self.belief_in_infos = bool(belief_in_infos)
-        self.metadata = {**type(self).metadata, "name": str(name)}
-
-        # ---- agents and start positions
-        self.possible_agents = [f"vehicle_{i}" for i in range(self.n_agents)]
+    def __init__(self, **config: Any) -> None:
+        self.config = SearchConfig(**config)
+        self.metadata = {**type(self).metadata, "name": self.config.name}
+        self.render_mode = self.config.render_mode
+        self.possible_agents = list(self.config.possible_agents)
+        self.agent_name_mapping = dict(self.config.agent_name_mapping)
         self.agents: list[str] = []
-        self.agent_name_mapping = {agent: i for i, agent in enumerate(self.possible_agents)}
-        self.start_positions = _readonly(
-            self._build_start_positions(start_center, start_spacing, start_positions)
-        )
-
-        # ---- actions
-        if action_type not in ACTION_TYPES:
-            raise ValueError(f"action_type must be one of {ACTION_TYPES}, got {action_type!r}")
-        self.action_type = action_type
-        self.control_low = np.asarray(self.vehicle.control_low, dtype=np.float64)
-        self.control_high = np.asarray(self.vehicle.control_high, dtype=np.float64)
-        control_dim = int(self.vehicle.control_dim)
-        if action_type == "discrete":
-            self.n_discrete_actions = _check_int(n_discrete_actions, "n_discrete_actions", 2)
-            axes = [
-                np.linspace(lo, hi, self.n_discrete_actions)
-                for lo, hi in zip(self.control_low, self.control_high, strict=True)
-            ]
-            grid = np.meshgrid(*axes, indexing="ij")
-            self.discrete_controls: FloatArray | None = _readonly(
-                np.stack([g.ravel() for g in grid], axis=-1)
-            )
-            self._action_spaces: dict[str, gymnasium.spaces.Space] = {
-                agent: gymnasium.spaces.Discrete(len(self.discrete_controls))
-                for agent in self.possible_agents
-            }
-        else:
-            self.n_discrete_actions = _check_int(n_discrete_actions, "n_discrete_actions", 2)
-            self.discrete_controls = None
-            self._action_spaces = {
-                agent: gymnasium.spaces.Box(
-                    low=self.control_low.astype(np.float32),
-                    high=self.control_high.astype(np.float32),
-                    shape=(control_dim,),
-                    dtype=np.float32,
-                )
-                for agent in self.possible_agents
-            }
-
-        # ---- observations and centralised state
-        self._build_spaces()
-
-        # ---- episode state (filled by reset)
-        self._seed_sequence: np.random.SeedSequence | None = None
-        self._target: FloatArray | None = None
-        self._states: FloatArray | None = None
-        self._beliefs: list[ParticleBelief] = []
-        self._state: ObsArray | None = None
-        self._entropies = np.zeros(self.n_agents)
-        self._cycles = 0
-        self.last_measurements: FloatArray | None = None
-        self.last_reception: NDArray[np.bool_] | None = None
+        self._core = SearchCore(self.config, 1)
+        self._action_spaces = {
+            a: copy.deepcopy(self.config.action_space) for a in self.possible_agents
+        }
+        self._build_observation_spaces()
         self._trails: list[FloatArray] = []
         self._renderer: Any = None
 
-    # ----------------------------------------------------------------------------- construction
+    def __getattr__(self, name: str) -> Any:
+        # the validated settings (sensor, vehicle, n_agents, dt, ...) live in the config
+        config = self.__dict__.get("config")
+        if config is None or name.startswith("__"):
+            raise AttributeError(name)
+        try:
+            return getattr(config, name)
+        except AttributeError:
+            raise AttributeError(
+                f"{type(self).__name__!r} object has no attribute {name!r}"
+            ) from None
+
     @classmethod
     def config_keys(cls) -> tuple[str, ...]:
         """Names of every accepted configuration keyword."""
-        parameters = inspect.signature(cls.__init__).parameters.values()
-        return tuple(p.name for p in parameters if p.kind is inspect.Parameter.KEYWORD_ONLY)
+        return SearchConfig.config_keys()
 
-    def _build_space(
-        self, target_space: TargetSpace | str | None, domain_size: tuple[float, float] | None
-    ) -> TargetSpace:
-        if isinstance(target_space, TargetSpace):
-            if domain_size is not None:
-                raise ValueError("domain_size must be None when target_space is a TargetSpace")
-            return target_space
-        size = (40.0, 40.0) if domain_size is None else domain_size
-        if target_space is None:
-            target_space = {2: "planar", 3: "planar_with_orientation"}.get(
-                int(self.sensor.target_dim), ""
-            )
-            if not target_space:
-                raise ValueError(
-                    f"no default target_space for sensor target_dim {self.sensor.target_dim}; "
-                    "pass a TargetSpace"
-                )
-        if target_space == "planar":
-            return TargetSpace.planar((float(size[0]), float(size[1])))
-        if target_space == "planar_with_orientation":
-            return TargetSpace.planar_with_orientation((float(size[0]), float(size[1])))
-        raise ValueError(
-            "target_space must be a TargetSpace, 'planar', 'planar_with_orientation' or None, "
-            f"got {target_space!r}"
-        )
-
-    def _build_start_positions(
-        self,
-        start_center: Sequence[float],
-        start_spacing: float | None,
-        start_positions: Sequence[Sequence[float]] | FloatArray | None,
-    ) -> FloatArray:
-        low = np.asarray(self.space.low, dtype=np.float64)[:2]
-        high = np.asarray(self.space.high, dtype=np.float64)[:2]
-        if start_positions is not None:
-            positions = np.array(start_positions, dtype=np.float64)
-            if positions.shape != (self.n_agents, 2) or not np.all(np.isfinite(positions)):
-                raise ValueError(
-                    f"start_positions must be a finite ({self.n_agents}, 2) array (one row per "
-                    f"agent), got shape {positions.shape}"
-                )
-        else:
-            center = np.asarray(start_center, dtype=np.float64)
-            if center.shape != (2,) or not np.all(np.isfinite(center)):
-                raise ValueError(f"start_center must be a finite (x, y) pair, got {start_center!r}")
-            if start_spacing is None:
-                spacing = max(2.0, 2.0 * self.min_separation)
-            else:
-                spacing = _check_float(start_spacing, "start_spacing", low=0.0, low_open=True)
-            if self.n_agents > 1 and spacing <= self.min_separation:
-                raise ValueError(
-                    f"start_spacing must exceed min_separation={self.min_separation}, got {spacing}"
-                )
-            positions = clustered_start_positions(self.n_agents, tuple(center.tolist()), spacing)
-            # shift (never rescale) the cluster into the domain when it pokes out
-            extent = positions.max(axis=0) - positions.min(axis=0)
-            if np.any(extent > high - low):
-                raise ValueError(
-                    f"a cluster of {self.n_agents} vehicles with start_spacing={spacing} does "
-                    f"not fit in the domain {tuple(high - low)}"
-                )
-            shift = np.maximum(low - positions.min(axis=0), 0.0) - np.maximum(
-                positions.max(axis=0) - high, 0.0
-            )
-            positions = positions + shift
-        outside = np.flatnonzero(np.any((positions < low) | (positions > high), axis=1))
-        if outside.size:
-            raise ValueError(
-                f"start_positions of {self.possible_agents[outside[0]]} "
-                f"{positions[outside[0]].tolist()} lie outside the domain "
-                f"[{low.tolist()}, {high.tolist()}]"
-            )
-        distances = pairwise_distances(positions)
-        np.fill_diagonal(distances, np.inf)
-        i, j = np.unravel_index(np.argmin(distances), distances.shape)
-        if self.n_agents > 1 and distances[i, j] < self.min_separation:
-            raise ValueError(
-                f"start positions of {self.possible_agents[i]} and {self.possible_agents[j]} are "
-                f"{distances[i, j]:.3g} apart, closer than min_separation={self.min_separation}"
-            )
-        return positions
-
-    def _build_spaces(self) -> None:
-        """Observation and state layouts with finite bounds (:mod:`infoseek.envs.spaces`)."""
-        max_speed = getattr(self.vehicle, "max_speed", None)
-        if isinstance(max_speed, bool) or not isinstance(max_speed, int | float | np.floating):
-            raise TypeError(
-                f"vehicle {self.vehicle!r} must have a numeric max_speed attribute (it bounds "
-                "the observed positions)"
-            )
-        box = position_box(
-            self.space, np.asarray(self.start_positions), float(max_speed), self.dt, self.max_cycles
-        )
-        geometry = (
-            self.vehicle.state_names,
-            float(max_speed),
-            box,
-            self.space,
-            self.n_agents,
-            self.belief_grid,
-        )
-        self.observation_layout, obs_low, obs_high = observation_layout(*geometry)
-        self._obs_low = obs_low.astype(np.float32)
-        self._obs_high = obs_high.astype(np.float32)
+    def _build_observation_spaces(self) -> None:
         self._observation_spaces = {
-            agent: gymnasium.spaces.Box(low=self._obs_low, high=self._obs_high, dtype=np.float32)
-            for agent in self.possible_agents
+            a: copy.deepcopy(self.config.observation_space) for a in self.possible_agents
         }
-        self.state_layout, state_low, state_high = state_layout(*geometry)
-        self._state_low = state_low.astype(np.float32)
-        self._state_high = state_high.astype(np.float32)
-        self.state_space = gymnasium.spaces.Box(
-            low=self._state_low, high=self._state_high, dtype=np.float32
-        )
+        self.state_space = copy.deepcopy(self.config.state_space)
 
     @property
     def max_cycles(self) -> int:
         """Steps before truncation. Reassigning it (between episodes) rebuilds the observation
         and state spaces, whose position bounds grow with the episode length."""
-        return self._max_cycles
+        return self.config.max_cycles
 
     @max_cycles.setter
     def max_cycles(self, value: int) -> None:
-        self._max_cycles = _check_int(value, "max_cycles", 1)
-        self._build_spaces()
+        self.config.max_cycles = value
+        self._build_observation_spaces()
 
     # ----------------------------------------------------------------------------- spaces
     @property
@@ -619,47 +240,17 @@ class InformationSeekingEnv(ParallelEnv):
         Returns:
             ``(observations, infos)`` keyed by agent.
         """
-        if seed is not None or self._seed_sequence is None:
-            self._seed_sequence = np.random.SeedSequence(seed)
-        streams = [np.random.default_rng(s) for s in self._seed_sequence.spawn(4 + self.n_agents)]
-        self._target_rng, self._obs_rng, self._message_rng, vehicle_rng = streams[:4]
-        belief_rngs = streams[4:]
-
+        target = self._target_from_options(options) if options else None
+        self._core.reset([0], [seed], [target])
         self.agents = list(self.possible_agents)
-        self._cycles = 0
-        self._target = self.space.sample_uniform(1, self._target_rng)[0]
-        if options:
-            self._target = self._target_from_options(options)
-        self._states = np.asarray(
-            self.vehicle.initial_states(self.start_positions.copy(), vehicle_rng),
-            dtype=np.float64,
-        )
-        self._beliefs = [
-            ParticleBelief.from_prior(
-                self.space,
-                self.n_particles,
-                rng,
-                motion=self.target_motion,
-                resample_threshold=self.resample_threshold,
-                roughening=self.roughening,
-                entropy_bins=self.entropy_bins,
-                tempering_ess=self.tempering_ess,
-            )
-            for rng in belief_rngs
-        ]
-        self._entropies = np.array([b.entropy() for b in self._beliefs])
-        self._recovered = np.zeros(self.n_agents, dtype=bool)
-        self.last_measurements = None
-        self.last_reception = None
-        positions = self.vehicle.position(self._current_states())
-        self._violations = separation_violations(positions, self.min_separation)
+        positions = self.vehicle.position(self._core.states[0])
         self._trails = [positions.copy()] if self.render_mode is not None else []
         observations, infos = self._observe_all()
         if self.render_mode == "human":
             self.render()
         return observations, infos
 
-    def _target_from_options(self, options: Mapping[str, Any]) -> NDArray[np.float64]:
+    def _target_from_options(self, options: Mapping[str, Any]) -> FloatArray | None:
         unknown = sorted(set(options) - {"target"})
         if unknown:
             # PettingZoo's API tests pass arbitrary options; ignore them, but not silently.
@@ -668,7 +259,7 @@ class InformationSeekingEnv(ParallelEnv):
                 stacklevel=3,
             )
         if "target" not in options:
-            return self._current_target()
+            return None
         target = np.asarray(options["target"], dtype=np.float64)
         if target.shape != (self.space.dim,) or not np.all(np.isfinite(target)):
             raise ValueError(
@@ -708,49 +299,16 @@ class InformationSeekingEnv(ParallelEnv):
         if not self.agents:
             raise RuntimeError("step() called on a finished episode; call reset() first")
         controls = self._controls_from_actions(actions)
-        self._states = np.asarray(
-            self.vehicle.step(self._current_states(), controls, self.dt), dtype=np.float64
-        )
-        self._target = self.target_motion.propagate(
-            self._current_target()[None, :], self.space, self.dt, self._target_rng
-        )[0]
-        positions = self.vehicle.position(self._states)
-        n = self.n_agents
-        measurements = np.asarray(
-            self.sensor.sample(
-                positions, np.broadcast_to(self._target, (n, self.space.dim)), self._obs_rng
-            ),
-            dtype=np.float64,
-        ).reshape(n, self.sensor.obs_dim)
-        reception = self._reception(positions)
-        self.last_measurements = _readonly(measurements.copy())
-        self.last_reception = _readonly(reception)
-
-        previous_entropies = self._entropies.copy()
-        for i, belief in enumerate(self._beliefs):
-            received = reception[i]
-            belief.predict(self.dt)
-            update = belief.update(self.filter_sensor, measurements[received], positions[received])
-            self._recovered[i] = bool(update.recovered)
-            belief.resample_if_needed()
-            self._entropies[i] = belief.entropy()
-        self._cycles += 1
-        self._violations = separation_violations(positions, self.min_separation)
+        result = self._core.step(controls[None])
         if self.render_mode is not None:
-            self._trails.append(positions.copy())
-
-        observations, infos = self._observe_all()
-        gains = previous_entropies - self._entropies
+            self._trails.append(self.vehicle.position(self._core.states[0]).copy())
+        observations, infos = self._observe_all(result.observations[0])
         rewards = {
-            agent: float(gains[i] - self.separation_penalty * self._violations[i])
-            for i, agent in enumerate(self.possible_agents)
+            agent: float(result.rewards[0, i]) for i, agent in enumerate(self.possible_agents)
         }
-        localised = self.terminate_on_localization and all(
-            info["posterior_mass"] >= self.localization_mass for info in infos.values()
-        )
-        truncated = self._cycles >= self.max_cycles
-        terminations = dict.fromkeys(self.possible_agents, bool(localised))
-        truncations = dict.fromkeys(self.possible_agents, bool(truncated and not localised))
+        localised, truncated = bool(result.terminated[0]), bool(result.truncated[0])
+        terminations = dict.fromkeys(self.possible_agents, localised)
+        truncations = dict.fromkeys(self.possible_agents, truncated)
         if localised or truncated:
             self.agents = []
         if self.render_mode == "human":
@@ -808,53 +366,27 @@ class InformationSeekingEnv(ParallelEnv):
             )
         return int(action)
 
-    def _reception(self, positions: FloatArray) -> NDArray[np.bool_]:
-        """``(A, A)`` matrix: ``[i, j]`` is True when agent i receives agent j's observation."""
-        n = self.n_agents
-        uniforms = self._message_rng.random((n, n))  # drawn every step: streams stay aligned
-        reception = uniforms >= self.message_loss
-        if self.message_loss >= 1.0:
-            reception[:] = False
-        if math.isfinite(self.comm_range):
-            reception &= pairwise_distances(positions) <= self.comm_range
-        np.fill_diagonal(reception, True)
-        return reception
-
-    def _observe_all(self) -> tuple[dict[str, ObsArray], dict[str, dict[str, Any]]]:
-        n = self.n_agents
-        states = self._current_states()
-        positions = self.vehicle.position(states)
-        relative = positions[None, :, :] - positions[:, None, :]  # [i, j] = x_j - x_i
-        others = relative[~np.eye(n, dtype=bool)].reshape(n, 2 * (n - 1))
-        grids = np.stack([b.mass_grid(self.belief_grid).ravel() for b in self._beliefs])
-        estimates = np.stack([b.mmse() for b in self._beliefs])
-        masses = np.array(
-            [
-                b.mass_within(self.localization_radius, e)
-                for b, e in zip(self._beliefs, estimates, strict=True)
-            ]
-        )
-        flat = np.concatenate([states, others, grids, estimates], axis=1).astype(np.float32)
-        flat = np.clip(flat, self._obs_low, self._obs_high)  # float32 rounding at the bounds
-        state = np.concatenate([states.ravel(), grids.ravel(), estimates.ravel(), masses])
-        self._state = np.clip(state.astype(np.float32), self._state_low, self._state_high)
-        vehicle_states = _readonly(states.copy())
+    def _observe_all(
+        self, flat: ObsArray | None = None
+    ) -> tuple[dict[str, ObsArray], dict[str, dict[str, Any]]]:
+        core = self._core
+        flat = core.observations()[0] if flat is None else flat
+        vehicle_states = _readonly(core.states[0].copy())
         observations: dict[str, ObsArray] = {}
         infos: dict[str, dict[str, Any]] = {}
         for i, agent in enumerate(self.possible_agents):
-            belief = self._beliefs[i]
             observations[agent] = flat[i].copy()
             infos[agent] = {
                 "vehicle_states": vehicle_states,
                 "agent_index": i,
-                "belief_recovered": bool(self._recovered[i]),
-                "ess": float(belief.ess),
-                "entropy": float(self._entropies[i]),
-                "posterior_mass": float(masses[i]),
-                "separation_violations": int(self._violations[i]),
+                "belief_recovered": bool(core.recovered[0, i]),
+                "ess": float(core.ess[0, i]),
+                "entropy": float(core.entropies[0, i]),
+                "posterior_mass": float(core.masses[0, i]),
+                "separation_violations": int(core.violations[0, i]),
             }
             if self.belief_in_infos:
-                infos[agent]["belief"] = belief.view()
+                infos[agent]["belief"] = self._view(i)
         return observations, infos
 
     def state(self) -> ObsArray:
@@ -865,26 +397,23 @@ class InformationSeekingEnv(ParallelEnv):
         Raises:
             RuntimeError: Called before ``reset()``.
         """
-        if self._state is None:
-            raise RuntimeError("state() called before reset(): call reset() first")
-        return self._state.copy()
+        self._require_started("state()")
+        return self._core.state(0)
 
     # ----------------------------------------------------------------------------- accessors
-    def _current_states(self) -> FloatArray:
-        if self._states is None:
-            raise RuntimeError("the episode has not started: call reset() first")
-        return self._states
+    def _require_started(self, what: str) -> None:
+        if not self._core.started[0]:
+            raise RuntimeError(f"{what} called before reset(): call reset() first")
 
-    def _current_target(self) -> FloatArray:
-        if self._target is None:
-            raise RuntimeError("the episode has not started: call reset() first")
-        return self._target
+    def _view(self, index: int) -> BeliefView:
+        beliefs = self._core.beliefs
+        view = ParticleBelief.row_of(beliefs, index)
+        return view.view()
 
     def true_target(self) -> FloatArray:
         """A copy of the true target state ``(d,)`` (for benchmarks only; never in observations)."""
-        if self._target is None:
-            raise RuntimeError("true_target() called before reset()")
-        return self._target.copy()
+        self._require_started("true_target()")
+        return self._core.targets[0].copy()
 
     def belief(self, agent: str) -> BeliefView:
         """Read-only snapshot of ``agent``'s belief (what the scripted planners read).
@@ -894,23 +423,38 @@ class InformationSeekingEnv(ParallelEnv):
             RuntimeError: Called before ``reset()``.
         """
         index = self.agent_name_mapping[self._agent_index(agent, "belief")]
-        if not self._beliefs:
-            raise RuntimeError(f"belief({agent!r}) called before reset(): call reset() first")
-        return self._beliefs[index].view()
+        self._require_started(f"belief({agent!r})")
+        return self._view(index)
 
     def agent_belief(self, agent: str) -> ParticleBelief:
-        """The live :class:`ParticleBelief` of ``agent`` (diagnostics; do not mutate)."""
-        return self._beliefs[self.agent_name_mapping[self._agent_index(agent, "agent_belief")]]
+        """A :class:`ParticleBelief` copy of ``agent``'s current belief (diagnostics), its
+        generator a copy of the belief's stream (drawing from it leaves the episode alone)."""
+        index = self.agent_name_mapping[self._agent_index(agent, "agent_belief")]
+        self._require_started(f"agent_belief({agent!r})")
+        return ParticleBelief.row_of(self._core.beliefs, index)
 
     @property
     def vehicle_states(self) -> FloatArray:
         """Read-only ``(A, state_dim)`` copy of every vehicle's state."""
-        return _readonly(self._current_states().copy())
+        self._require_started("vehicle_states")
+        return _readonly(self._core.states[0].copy())
 
     @property
     def cycles(self) -> int:
         """Steps taken in the current episode."""
-        return self._cycles
+        return int(self._core.cycles[0])
+
+    @property
+    def last_measurements(self) -> FloatArray | None:
+        """Read-only ``(A, obs_dim)`` measurements of the last step (``None`` before one)."""
+        measured = self._core.last_measurements
+        return None if measured is None or self.cycles == 0 else _readonly(measured[0].copy())
+
+    @property
+    def last_reception(self) -> NDArray[np.bool_] | None:
+        """Read-only ``(A, A)`` reception matrix of the last step (``None`` before one)."""
+        reception = self._core.last_reception
+        return None if reception is None or self.cycles == 0 else _readonly(reception[0].copy())
 
     # ----------------------------------------------------------------------------- rendering
     @property
@@ -930,7 +474,7 @@ class InformationSeekingEnv(ParallelEnv):
                 "render() called with render_mode=None; pass render_mode='rgb_array' or 'human'"
             )
             return None
-        if self._target is None:
+        if not self._core.started[0]:
             raise RuntimeError("render() called before reset()")
         from infoseek.envs.rendering import SearchRenderer
 
@@ -938,16 +482,16 @@ class InformationSeekingEnv(ParallelEnv):
             self._renderer = SearchRenderer(
                 self.space, human=self.render_mode == "human", title=self.metadata["name"]
             )
-        belief = self._beliefs[0]
+        belief = self.agent_belief(self.possible_agents[0])
         estimate = belief.mmse()
         frame = self._renderer.draw(
             particles=np.asarray(belief.particles),
             weights=np.asarray(belief.weights),
             estimate=estimate,
-            target=self._target,
+            target=self.true_target(),
             trails=np.stack(self._trails) if self._trails else None,
-            step=self._cycles,
-            headings=self._headings(self._current_states()),
+            step=self.cycles,
+            headings=self._headings(self._core.states[0]),
             mass=float(belief.mass_within(self.localization_radius, estimate)),
             radius=self.localization_radius,
         )
