@@ -1,7 +1,11 @@
-"""Parameter-shared training environments: PettingZoo parallel env -> SuperSuit -> SB3 VecEnv.
+"""Parameter-shared training environments for SB3: the batched vector env, or (worker processes)
+PettingZoo parallel env -> SuperSuit -> SB3 VecEnv.
 
-Every agent of every environment copy becomes one slot of a Stable-Baselines3 ``VecEnv``, so one
-policy is trained on the transitions of all agents (parameter sharing). The chain is::
+In one process :func:`make_training_vec_env` returns :func:`infoseek.envs.make_vec`, whose
+batched core steps every copy at once (same transitions, same info conventions as below).
+Either way every agent of every environment copy becomes one slot of a Stable-Baselines3
+``VecEnv``, so one policy is trained on the transitions of all agents (parameter sharing). With
+worker processes (``num_cpus >= 2``) the chain is::
 
     parallel env -> TrainingInfoFilter -> supersuit.pettingzoo_env_to_vec_env_v1  (A slots)
         -> supersuit.concat_vec_envs_v1(n_envs copies)             (n_envs * A slots)
@@ -39,6 +43,7 @@ from pettingzoo.utils.env import ParallelEnv
 from supersuit.vector.sb3_vector_wrapper import SB3VecEnvWrapper
 
 from infoseek.envs import make
+from infoseek.envs.vector import SearchVecEnv, make_vec
 
 __all__ = ["SeededSB3VecEnv", "TrainingInfoFilter", "make_training_vec_env", "scalar_infos"]
 
@@ -139,8 +144,11 @@ def make_training_vec_env(
     *,
     n_envs: int = 1,
     num_cpus: int = 0,
-) -> SeededSB3VecEnv:
+) -> SearchVecEnv | SeededSB3VecEnv:
     """The SB3 ``VecEnv`` of ``n_envs`` copies of ``env_id``, one slot per agent per copy.
+
+    In one process (``num_cpus <= 1``) it is :func:`infoseek.envs.make_vec` (the batched
+    core); with ``num_cpus >= 2`` worker processes, the SuperSuit chain above.
 
     Args:
         env_id: Registered environment id (``"bearings_v0"``, ...).
@@ -158,6 +166,9 @@ def make_training_vec_env(
         raise ValueError(f"n_envs must be >= 1, got {n_envs}")
     if int(num_cpus) < 0:
         raise ValueError(f"num_cpus must be >= 0, got {num_cpus}")
+    if int(num_cpus) <= 1:
+        # one process: the batched core steps every copy at once
+        return make_vec(env_id, num_envs=int(n_envs), **dict(env_kwargs or {}))
     env = TrainingInfoFilter(make(env_id, **dict(env_kwargs or {})))
     markov = supersuit.pettingzoo_env_to_vec_env_v1(env)
     venv = supersuit.concat_vec_envs_v1(markov, int(n_envs), num_cpus=int(num_cpus))

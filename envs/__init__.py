@@ -1,6 +1,8 @@
 """infoseek environments: sensors, vehicles, target models, particle beliefs and PettingZoo envs.
 
-``make(env_id, **kwargs)`` builds a registered environment and ``registry`` lists them
+``make(env_id, **kwargs)`` builds a registered environment, ``make_vec(env_id, num_envs=B)``
+a Stable-Baselines3 ``VecEnv`` of ``B`` batched copies (:mod:`infoseek.envs.vector`), and
+``registry`` lists them
 (``"bearings_v0"``, ``"beacon_v0"``). The versioned modules ``infoseek.envs.bearings_v0`` and
 ``infoseek.envs.beacon_v0`` expose ``parallel_env``, ``env`` (AEC) and ``raw_env``; their module
 docstrings are the manuals. Everything else is imported lazily on first attribute access, so
@@ -29,11 +31,15 @@ __all__ = [
     "beacon_v0",
     "bearings_v0",
     "make",
+    "make_vec",
     "register",
     "registry",
 ]
 
-_LAZY_ATTRIBUTES = {"InformationSeekingEnv": "infoseek.envs.search_env"}
+_LAZY_ATTRIBUTES = {
+    "InformationSeekingEnv": "infoseek.envs.search_env",
+    "make_vec": "infoseek.envs.vector",
+}
 _LAZY_MODULES = ("bearings_v0", "beacon_v0")
 
 
