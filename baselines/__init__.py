@@ -13,7 +13,7 @@ supersuit, torch, tensorboard); they are imported on first attribute access, so
   ``config.json``, the ``eval.csv`` training curve, checkpoints and TensorBoard logs
   (:mod:`infoseek.baselines.training`).
 * :func:`evaluate_policy` -> seeded-episode metrics (:mod:`infoseek.baselines.evaluation`).
-* :func:`make_training_vec_env` -> the SuperSuit/SB3 VecEnv used for training
+* :func:`make_training_vec_env` -> the batched SB3 VecEnv used for training
   (:mod:`infoseek.baselines.vec_env`).
 """
 

@@ -204,8 +204,8 @@ class BeliefBatch:
     ) -> None:
         """Store normalised ``(K, N)`` log-weights (or those of ``rows``) and their weights."""
         weights = np.exp(log_weights)
-        weights = weights / weights.sum(axis=1, keepdims=True)
-        if rows is None:
+        weights /= weights.sum(axis=1, keepdims=True)
+        if rows is None or self._all_rows(rows):
             self.log_weights, self.weights = log_weights, weights
             return
         self.log_weights = self.log_weights.copy()
@@ -217,13 +217,20 @@ class BeliefBatch:
         self, rows: NDArray[np.intp], particles: FloatArray, log_weights: FloatArray
     ) -> None:
         """Replace the particles and log-weights of ``rows`` (new arrays; views stay valid)."""
-        self.particles = self.particles.copy()
-        self.particles[rows] = particles
+        if self._all_rows(rows):
+            self.particles = particles
+        else:
+            self.particles = self.particles.copy()
+            self.particles[rows] = particles
         self.set_log_weights(log_weights, rows)
 
-    def ess(self) -> FloatArray:
-        """``(K,)`` effective sample sizes ``1 / sum w^2``."""
-        return np.array([1.0 / np.dot(w, w) for w in self.weights])
+    def _all_rows(self, rows: NDArray[np.intp]) -> bool:
+        return rows.size == self.n_beliefs and bool(np.all(rows == np.arange(rows.size)))
+
+    def ess(self, rows: NDArray[np.intp] | None = None) -> FloatArray:
+        """``(K,)`` effective sample sizes ``1 / sum w^2`` (of ``rows`` only, if given)."""
+        weights = self.weights if rows is None else self.weights[rows]
+        return np.array([1.0 / np.dot(w, w) for w in weights])
 
     # ------------------------------------------------------------------ filter cycle
     def predict(self, dt: float) -> None:
@@ -270,7 +277,9 @@ class BeliefBatch:
                 )
             each[:, g * per : (g + 1) * per] = loglik.reshape(m, per, n)
         # a non-received observation adds exactly 0.0: the sum is that of the received ones
-        total = np.where(received.T[:, :, None], each, 0.0).sum(axis=0)
+        if not np.all(received):
+            each = np.where(received.T[:, :, None], each, 0.0)
+        total = each.sum(axis=0)
         if np.any(np.isnan(total)) or np.any(total == np.inf):
             raise ValueError(
                 f"sensor {getattr(sensor, 'name', sensor)!r}: log_likelihood returned NaN or +inf"
@@ -450,9 +459,16 @@ class BeliefBatch:
             return need
         uniforms = np.array([self.rngs[k].random() for k in rows])
         idx = systematic_resample_rows(self.weights[rows], uniforms)
-        particles = np.take_along_axis(self.particles[rows], idx[:, :, None], axis=1)
+        d = self.particles.shape[2]
+        flat_index = (idx + (rows * n)[:, None]) * d
+        values = self.particles.reshape(-1)
+        columns = np.empty((rows.size, d, n))
+        for j in range(d):  # gather column by column into the (R, d, N) layout of roughening
+            columns[:, j] = values[flat_index + j]
         if self.roughening > 0.0:
-            particles = self.roughen(particles, [self.rngs[k] for k in rows])
+            particles = self._roughen_columns(columns, [self.rngs[k] for k in rows], None)
+        else:
+            particles = np.ascontiguousarray(columns.transpose(0, 2, 1))
         self.set_rows(rows, particles, np.full((rows.size, n), -math.log(n)))
         return need
 
@@ -465,9 +481,18 @@ class BeliefBatch:
         """Gordon roughening of ``(R, N, d)`` equally weighted particle sets, row ``r`` drawing
         from ``rngs[r]`` (see :mod:`infoseek.envs.belief`). With ``move_scale`` the jitter is a
         tempering-move proposal: ``move_scale`` times each coordinate's standard deviation."""
-        space = self.space
-        r_rows, n, d = particles.shape
         columns = np.ascontiguousarray(particles.transpose(0, 2, 1))  # (R, d, N)
+        return self._roughen_columns(columns, rngs, move_scale)
+
+    def _roughen_columns(
+        self,
+        columns: FloatArray,
+        rngs: Sequence[np.random.Generator],
+        move_scale: float | None,
+    ) -> FloatArray:
+        """:meth:`roughen` of particles given as ``(R, d, N)`` columns; returns ``(R, N, d)``."""
+        space = self.space
+        r_rows, d, n = columns.shape
         idx, low, period, harmonic = _angle_scale(space)
         if move_scale is None:
             spread = columns.max(axis=2) - columns.min(axis=2)
@@ -475,7 +500,7 @@ class BeliefBatch:
             spread = columns.std(axis=2)
         if idx.size:
             uniform = np.full(n, 1.0 / n)
-            center = np.stack([angle_means(space, p[:, idx], uniform) for p in particles])
+            center = np.stack([angle_means(space, c[idx].T, uniform) for c in columns])
             half = period / (2.0 * harmonic)  # residuals live in [-half, half)
             resid = np.mod(
                 columns[:, idx] - center[:, :, None] + half[:, None], 2.0 * half[:, None]
@@ -505,49 +530,57 @@ class BeliefBatch:
         return result
 
     # ------------------------------------------------------------------ estimates
-    def mmse(self) -> FloatArray:
+    # Each takes ``rows`` (default all beliefs) and returns one entry per row.
+    def _rows(self, rows: NDArray[np.intp] | None) -> tuple[FloatArray, FloatArray]:
+        if rows is None:
+            return self.particles, self.weights
+        return self.particles[rows], self.weights[rows]
+
+    def mmse(self, rows: NDArray[np.intp] | None = None) -> FloatArray:
         """``(K, d)`` MMSE estimates (eq. 12; circular/axial means of periodic angles)."""
-        est = np.stack([w @ p for w, p in zip(self.weights, self.particles, strict=True)])
+        particles, weights = self._rows(rows)
+        est = np.stack([w @ p for w, p in zip(weights, particles, strict=True)])
         idx = np.flatnonzero(self.space.periodic_mask)
-        if idx.size:
-            for k in range(self.n_beliefs):
-                est[k, idx] = angle_means(self.space, self.particles[k][:, idx], self.weights[k])
+        for k in range(est.shape[0] if idx.size else 0):
+            est[k, idx] = angle_means(self.space, particles[k][:, idx], weights[k])
         return est
 
-    def mass_within(self, radius: float, centers: FloatArray) -> FloatArray:
+    def mass_within(
+        self, radius: float, centers: FloatArray, rows: NDArray[np.intp] | None = None
+    ) -> FloatArray:
         """``(K,)`` posterior mass whose position lies within ``radius`` of ``(K, >= 2)``
         ``centers`` (their position part)."""
-        diff = self.particles[:, :, :2] - centers[:, None, :2]
-        inside = np.einsum("kij,kij->ki", diff, diff) <= float(radius) ** 2
-        return np.array(
-            [min(1.0, w[mask].sum()) for w, mask in zip(self.weights, inside, strict=True)]
-        )
+        particles, weights = self._rows(rows)
+        dx = particles[:, :, 0] - centers[:, 0:1]
+        dy = particles[:, :, 1] - centers[:, 1:2]
+        dx *= dx
+        dy *= dy
+        dx += dy
+        inside = dx <= float(radius) ** 2
+        return np.array([min(1.0, w[mask].sum()) for w, mask in zip(weights, inside, strict=True)])
 
-    def entropy(self) -> FloatArray:
+    def entropy(self, rows: NDArray[np.intp] | None = None) -> FloatArray:
         """``(K,)`` histogram entropy estimates (eq. 6; :mod:`infoseek.envs.entropy`)."""
+        particles, weights = self._rows(rows)
         if self.entropy_bins is None:
-            return adaptive_histogram_entropy_rows(self.particles, self.weights, self.space)
-        return np.array(
-            [
-                fixed_grid_entropy(p, w, self.space, self.entropy_bins)
-                for p, w in zip(self.particles, self.weights, strict=True)
-            ]
-        )
+            return adaptive_histogram_entropy_rows(particles, weights, self.space)
+        bins = self.entropy_bins
+        pairs = zip(particles, weights, strict=True)
+        return np.array([fixed_grid_entropy(p, w, self.space, bins) for p, w in pairs])
 
-    def mass_grid(self, shape: tuple[int, int]) -> FloatArray:
+    def mass_grid(self, shape: tuple[int, int], rows: NDArray[np.intp] | None = None) -> FloatArray:
         """``(K, gx, gy)`` posterior position mass on a coarse grid over the position box."""
         gx, gy = shape
-        k_rows, n = self.n_beliefs, self.n_particles
+        particles, weights = self._rows(rows)
+        k_rows, n = particles.shape[0], self.n_particles
         low = self.space.low_array[[0, 1]]
         width = self.space.high_array[[0, 1]] - low
         cells = gx * gy
-        flat = (
-            grid_cell_index(
-                self.particles[:, :, :2].reshape(k_rows * n, 2), low, width, np.array([gx, gy])
-            ).reshape(k_rows, n)
-            + (cells * np.arange(k_rows))[:, None]
-        )
-        mass = np.bincount(flat.ravel(), weights=self.weights.ravel(), minlength=k_rows * cells)
+        flat = grid_cell_index(
+            particles[:, :, :2].reshape(k_rows * n, 2), low, width, np.array([gx, gy])
+        ).reshape(k_rows, n)
+        flat += (cells * np.arange(k_rows))[:, None]
+        mass = np.bincount(flat.ravel(), weights=weights.ravel(), minlength=k_rows * cells)
         mass = mass.reshape(k_rows, cells)
         return (mass / mass.sum(axis=1, keepdims=True)).reshape(k_rows, gx, gy)
 

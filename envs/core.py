@@ -264,7 +264,9 @@ class SearchCore:
         relative = positions[:, None, :, :] - positions[:, :, None, :]  # [b, i, j] = x_j - x_i
         others = relative[:, ~np.eye(a, dtype=bool)].reshape(b, a, 2 * (a - 1))
         flat = np.concatenate([self.states, others, self.grids, self.estimates], axis=2)
-        return np.clip(flat.astype(np.float32), config.obs_low, config.obs_high)
+        out = flat.astype(np.float32)  # float32 rounding can step past a bound: clip
+        np.maximum(out, config.obs_low, out=out)
+        return np.minimum(out, config.obs_high, out=out)
 
     def state(self, env: int) -> ObsArray:
         """Environment ``env``'s centralised state (layout ``config.state_layout``)."""

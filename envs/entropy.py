@@ -77,10 +77,18 @@ def grid_cell_index(
         width: ``(k,)`` side lengths of the box (> 0).
         bins: ``(k,)`` cells per coordinate.
     """
-    cell = np.floor((coords - low) * (bins / width)).astype(np.int64)
-    np.clip(cell, 0, bins - 1, out=cell)
+    factor = bins / width
     strides = np.cumprod(np.concatenate([bins[1:], [1]])[::-1])[::-1]
-    return cell @ strides
+    flat = np.zeros(coords.shape[:-1], dtype=np.int64)
+    for j in range(coords.shape[-1]):  # column by column: numpy is slow on (N, 2) broadcasts
+        scaled = coords[..., j] - low[j]
+        scaled *= factor[j]
+        cell = np.floor(scaled, out=scaled).astype(np.int64)
+        np.maximum(cell, 0, out=cell)
+        np.minimum(cell, bins[j] - 1, out=cell)
+        cell *= strides[j]
+        flat += cell
+    return flat
 
 
 def _cell_entropy(
@@ -169,7 +177,9 @@ def adaptive_histogram_entropy_rows(
     k_rows, n, d = particles.shape
     low, high = space.low_array, space.high_array
     width = high - low
-    scaled = (particles - low) / width
+    scaled = np.empty((k_rows, n, d))
+    for j in range(d):  # column by column: numpy is slow on (..., d) broadcasts of small d
+        scaled[:, :, j] = (particles[:, :, j] - low[j]) / width[j]
     for j in np.flatnonzero(np.asarray(space.periodic, dtype=bool)):
         scaled[:, :, j] = _unroll_periodic(np.mod(scaled[:, :, j], 1.0))
     box_low, box_high = _weighted_boxes(scaled, weights)
@@ -180,14 +190,20 @@ def adaptive_histogram_entropy_rows(
         n_cells = max(1.0, float(ess[row]) / PARTICLES_PER_CELL)
         cube = (float(np.prod(side[row])) / n_cells) ** (1.0 / d)
         bins[row] = np.maximum(1, np.round(side[row] / cube)).astype(np.int64)
-    cell = np.floor((scaled - box_low[:, None, :]) * (bins / side)[:, None, :]).astype(np.int64)
-    np.clip(cell, 0, bins[:, None, :] - 1, out=cell)
+    factor = bins / side
     strides = np.cumprod(
         np.concatenate([bins[:, 1:], np.ones((k_rows, 1), np.int64)], axis=1)[:, ::-1], axis=1
     )[:, ::-1]
-    n_cells_per_row = np.prod(bins, axis=1)
-    offsets = np.concatenate([[0], np.cumsum(n_cells_per_row)])
-    flat = np.einsum("knd,kd->kn", cell, strides) + offsets[:-1, None]
+    offsets = np.concatenate([[0], np.cumsum(np.prod(bins, axis=1))])
+    flat = np.broadcast_to(offsets[:-1, None], (k_rows, n)).copy()
+    for j in range(d):  # the flat cell index, an exact integer dot product
+        column = scaled[:, :, j] - box_low[:, j : j + 1]
+        column *= factor[:, j : j + 1]
+        cell = np.floor(column, out=column).astype(np.int64)
+        np.maximum(cell, 0, out=cell)
+        np.minimum(cell, bins[:, j : j + 1] - 1, out=cell)
+        cell *= strides[:, j : j + 1]
+        flat += cell
     mass = np.bincount(flat.ravel(), weights=weights.ravel(), minlength=int(offsets[-1]))
     result = np.empty(k_rows)
     for row in range(k_rows):

@@ -22,11 +22,13 @@ SB3 conventions:
 * ``seed(s)`` (what SB3 calls) makes the next ``reset`` seed environment ``b`` with ``s + b``;
   later automatic resets continue each environment's own seed sequence, so a run is
   reproducible from its seed.
+
+``n_workers > 1`` splits the ``B`` environments over that many worker processes (one core
+each; :mod:`infoseek.envs.autoreset`): the same slots, seeds and numbers, stepped in parallel.
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -34,7 +36,8 @@ import numpy as np
 from numpy.typing import NDArray
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvStepReturn
 
-from infoseek.envs.core import SearchCore
+from infoseek.envs.autoreset import AutoResetBatch, WorkerBatch, build_core
+from infoseek.envs.config import SearchConfig
 
 __all__ = ["SearchVecEnv", "make_vec"]
 
@@ -43,29 +46,43 @@ class SearchVecEnv(VecEnv):
     """``B`` batched search environments as an SB3 ``VecEnv`` of ``B * A`` agent slots.
 
     Args:
-        core: The batched core (its config gives the spaces).
+        config: The environments' settings (spaces, agent count).
+        batches: The auto-resetting batches holding the environments, in slot order (one in
+            this process, or one per worker process).
+        env_counts: Environments in each batch.
         env_id: The environment id (reported by :meth:`get_attr` as ``"env_id"``).
     """
 
-    def __init__(self, core: SearchCore, env_id: str = "") -> None:
-        self.core = core
+    def __init__(
+        self,
+        config: SearchConfig,
+        batches: Sequence[AutoResetBatch | WorkerBatch],
+        env_counts: Sequence[int],
+        env_id: str = "",
+    ) -> None:
+        self.config = config
         self.env_id = env_id
-        self.n_agents = core.config.n_agents
+        self.n_agents = config.n_agents
+        self._batches = list(batches)
+        self._env_counts = [int(c) for c in env_counts]
+        self._offsets = np.concatenate([[0], np.cumsum(self._env_counts)]).astype(int)
         super().__init__(
-            core.n_envs * self.n_agents,
-            core.config.observation_space,
-            core.config.action_space,
+            int(self._offsets[-1]) * self.n_agents, config.observation_space, config.action_space
         )
         self._base_seed: int | None = None
-        self._actions: NDArray[Any] | None = None
-        self._returns = np.zeros(self.num_envs)
-        self._lengths = np.zeros(core.n_envs, dtype=np.int64)
-        self._start = time.perf_counter()
+        self._pending = False
 
     @property
     def n_envs(self) -> int:
         """Number of batched environments ``B`` (``num_envs`` counts agent slots)."""
-        return self.core.n_envs
+        return int(self._offsets[-1])
+
+    @property
+    def core(self) -> Any:
+        """The :class:`~infoseek.envs.core.SearchCore` (in-process batches only)."""
+        if len(self._batches) != 1 or not isinstance(self._batches[0], AutoResetBatch):
+            raise AttributeError("core: the environments live in worker processes")
+        return self._batches[0].core
 
     def seed(self, seed: int | None = None) -> Sequence[int | None]:
         """Seed the next :meth:`reset`: environment ``b`` gets ``seed + b``."""
@@ -75,71 +92,53 @@ class SearchVecEnv(VecEnv):
     def reset(self) -> NDArray[np.float32]:
         """Reset every environment; returns ``(B * A, obs_dim)`` observations."""
         seed, self._base_seed = self._base_seed, None
-        b = self.core.n_envs
-        self.core.reset(list(range(b)), [None if seed is None else seed + e for e in range(b)])
-        self._returns[:] = 0.0
-        self._lengths[:] = 0
-        return self.core.observations().reshape(self.num_envs, -1)
+        parts = []
+        for batch, start, count in zip(
+            self._batches, self._offsets, self._env_counts, strict=False
+        ):
+            seeds = [None if seed is None else seed + start + e for e in range(count)]
+            parts.append(batch.reset(seeds))
+        return np.concatenate(parts)
 
     def step_async(self, actions: NDArray[Any]) -> None:
-        """Store one action per slot (``(B * A,)`` discrete or ``(B * A, control_dim)``)."""
-        self._actions = np.asarray(actions)
+        """Hand every batch its slots' actions (``(B * A,)`` discrete or
+        ``(B * A, control_dim)``); worker processes start stepping at once."""
+        array = np.asarray(actions)
+        if array.ndim == 0 or array.shape[0] != self.num_envs:
+            # the full shape check, with the expected shape in the message
+            self.config.decode_actions(array, self.n_envs, "actions")
+        a = self.n_agents
+        for batch, start, count in zip(
+            self._batches, self._offsets, self._env_counts, strict=False
+        ):
+            batch.step_async(array[start * a : (start + count) * a])
+        self._pending = True
 
     def step_wait(self) -> VecEnvStepReturn:
         """Step every environment, auto-reset the finished ones (module docstring)."""
-        if self._actions is None:
+        if not self._pending:
             raise RuntimeError("step_wait() without step_async(actions)")
-        controls = self.core.config.decode_actions(self._actions, self.core.n_envs, "actions")
-        self._actions = None
-        result = self.core.step(controls)
-        a = self.n_agents
-        rewards = result.rewards.reshape(-1)
-        self._returns += rewards
-        self._lengths += 1
-        done_envs = np.flatnonzero(result.terminated | result.truncated)
-        masses = self.core.masses.reshape(-1)
-        entropies = self.core.entropies.reshape(-1)
-        infos: list[dict[str, Any]] = [
-            {
-                "posterior_mass": float(masses[k]),
-                "entropy": float(entropies[k]),
-                "TimeLimit.truncated": False,
-            }
-            for k in range(self.num_envs)
-        ]
-        observations = result.observations.reshape(self.num_envs, -1)
-        elapsed = round(time.perf_counter() - self._start, 6)
-        for e in done_envs:
-            for k in range(e * a, (e + 1) * a):
-                infos[k]["terminal_observation"] = observations[k].copy()
-                infos[k]["TimeLimit.truncated"] = bool(result.truncated[e])
-                infos[k]["episode"] = {
-                    "r": float(self._returns[k]),
-                    "l": int(self._lengths[e]),
-                    "t": elapsed,
-                }
-            self._returns[e * a : (e + 1) * a] = 0.0
-            self._lengths[e] = 0
-        if done_envs.size:
-            self.core.reset(done_envs, [None] * done_envs.size)
-            fresh = self.core.observations()
-            for e in done_envs:
-                observations[e * a : (e + 1) * a] = fresh[e]
-        dones = np.repeat(result.terminated | result.truncated, a)
-        return observations, rewards.astype(np.float32), dones, infos
+        self._pending = False
+        outputs = [batch.step_wait() for batch in self._batches]
+        observations = np.concatenate([o[0] for o in outputs])
+        rewards = np.concatenate([o[1] for o in outputs])
+        dones = np.concatenate([o[2] for o in outputs])
+        infos = [info for o in outputs for info in o[3]]
+        return observations, rewards, dones, infos
 
     def close(self) -> None:
-        """Nothing to release (the core holds arrays only)."""
+        """Stop the worker processes (nothing to release in process)."""
+        for batch in self._batches:
+            batch.close()
 
     def _slots(self, indices: None | int | Iterable[int]) -> list[int]:
         return list(self._get_indices(indices))
 
     def get_attr(self, attr_name: str, indices: None | int | Iterable[int] = None) -> list[Any]:
         """A setting of the environment (``SearchConfig`` attribute) once per slot."""
-        source = self if attr_name in ("env_id", "render_mode") else self.core.config
         if attr_name == "render_mode":
             return [None for _ in self._slots(indices)]
-        value = getattr(source, attr_name)
+        value = self.env_id if attr_name == "env_id" else getattr(self.config, attr_name)
         return [value for _ in self._slots(indices)]
 
     def set_attr(
@@ -170,22 +169,40 @@ class SearchVecEnv(VecEnv):
         return [False for _ in self._slots(indices)]
 
 
-def make_vec(env_id: str, num_envs: int = 1, **kwargs: Any) -> SearchVecEnv:
+def make_vec(env_id: str, num_envs: int = 1, n_workers: int = 1, **kwargs: Any) -> SearchVecEnv:
     """The SB3 ``VecEnv`` of ``num_envs`` batched copies of ``env_id``, one slot per agent.
 
     Args:
         env_id: A registered environment id (``"bearings_v0"``, ``"beacon_v0"``, ...).
         num_envs: Number of environments ``B >= 1``; the ``VecEnv`` has ``B * n_agents`` slots.
+        n_workers: Worker processes sharing the environments (``1``: this process; at most
+            ``num_envs``).
         **kwargs: Environment keywords (those of the PettingZoo environment).
 
     Raises:
-        ValueError: ``num_envs < 1``, an unknown ``env_id`` or a bad environment keyword.
+        ValueError: ``num_envs < 1``, ``n_workers`` not in ``[1, num_envs]``, an unknown
+            ``env_id`` or a bad environment keyword.
     """
     if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
         raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
-    from infoseek.envs.registration import make
-
-    env = make(env_id, **kwargs)
-    config = env.unwrapped.config
-    env.close()
-    return SearchVecEnv(SearchCore(config, int(num_envs)), env_id)
+    if (
+        isinstance(n_workers, bool)
+        or not isinstance(n_workers, int | np.integer)
+        or not 1 <= n_workers <= num_envs
+    ):
+        raise ValueError(
+            f"n_workers must be an integer in [1, num_envs={num_envs}], got {n_workers!r}"
+        )
+    core = build_core(env_id, 1 if n_workers > 1 else int(num_envs), kwargs)
+    if n_workers == 1:
+        return SearchVecEnv(core.config, [AutoResetBatch(core)], [int(num_envs)], env_id)
+    counts = [len(part) for part in np.array_split(np.arange(num_envs), n_workers)]
+    workers: list[WorkerBatch] = []
+    try:
+        for count in counts:
+            workers.append(WorkerBatch(env_id, count, dict(kwargs)))
+    except BaseException:
+        for worker in workers:
+            worker.close()
+        raise
+    return SearchVecEnv(core.config, workers, counts, env_id)

@@ -12,7 +12,6 @@ import pytest
 
 torch = pytest.importorskip("torch")
 pytest.importorskip("stable_baselines3")
-pytest.importorskip("supersuit")
 
 import infoseek.envs as envs  # noqa: E402
 from infoseek.baselines import (  # noqa: E402
@@ -31,7 +30,6 @@ from infoseek.baselines.features import (  # noqa: E402
     observation_scaling,
 )
 from infoseek.baselines.training import find_resume_point  # noqa: E402
-from infoseek.baselines.vec_env import TrainingInfoFilter  # noqa: E402
 from infoseek.experiments.train import add_train_arguments, run_train  # noqa: E402
 from infoseek.planners import RandomPolicy  # noqa: E402
 
@@ -271,16 +269,6 @@ def test_training_vec_env_filters_infos_and_marks_truncation():
         assert info["episode"]["l"] == TINY_ENV["max_cycles"]
         assert info["episode"]["r"] == pytest.approx(returns[k], rel=1e-5)
     venv.close()
-    wrapped = TrainingInfoFilter(tiny_env())
-    _, infos = wrapped.reset(seed=0)
-    assert set(infos["vehicle_0"]) == {
-        "agent_index",
-        "belief_recovered",
-        "ess",
-        "entropy",
-        "posterior_mass",
-        "separation_violations",
-    }
 
 
 def test_seeded_vec_env_is_reproducible_and_copies_differ():

@@ -70,7 +70,6 @@ def test_every_recipe_has_a_main_and_a_docstring() -> None:
 
 def test_sb3_ppo_trains_the_shared_and_the_single_vehicle_forms() -> None:
     pytest.importorskip("stable_baselines3")
-    pytest.importorskip("supersuit")
     recipe = load_example("sb3_ppo")
     shared = recipe.train_shared(
         timesteps=256, n_envs=2, n_steps=32, max_cycles=20, eval_episodes=2, **SMALL

@@ -139,3 +139,32 @@ def test_actions_of_the_wrong_shape_name_the_expected_shape() -> None:
         discrete.step(np.zeros((6, 1), dtype=np.int64))
     with pytest.raises(ValueError, match=r"must be in \[0, 5\)"):
         discrete.step(np.full(6, 5))
+
+
+def test_worker_processes_give_the_same_numbers_as_one_process() -> None:
+    config = {**TINY, "n_agents": 2}
+    actions = _random_actions(
+        make_vec("bearings_v0", num_envs=3, **config), np.random.default_rng(5), 8
+    )
+    runs = []
+    for workers in (1, 2):
+        venv = make_vec("bearings_v0", num_envs=3, n_workers=workers, **config)
+        try:
+            venv.seed(11)
+            run = [venv.reset()]
+            for step in actions:
+                obs, rewards, dones, infos = venv.step(step)
+                run += [obs, rewards, dones, [sorted(info) for info in infos]]
+            runs.append(run)
+        finally:
+            venv.close()
+    for one, two in zip(*runs, strict=True):
+        if isinstance(one, np.ndarray):
+            np.testing.assert_array_equal(one, two)
+        else:
+            assert one == two
+
+
+def test_a_bad_worker_count_names_itself() -> None:
+    with pytest.raises(ValueError, match=r"n_workers must be an integer in \[1, num_envs=2\]"):
+        make_vec("bearings_v0", num_envs=2, n_workers=3)
