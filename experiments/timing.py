@@ -17,7 +17,12 @@ engine has one, and the machine (CPU model, logical cores, Python, NumPy and the
   prior (N = 2000, 8 candidate positions per sensor on a circle of radius 1, eq. 22 with the
   penalty coordination, 3 Gauss-Seidel sweeps);
 * ``env_step_bearings_4``, ``env_step_beacon_4``: one ``env.step`` with 4 agents and 2000
-  particles each and random actions (no rendering).
+  particles each and random actions (no rendering);
+* ``vec_step_bearings_64``, ``vec_step_bearings_64_2_workers``: one ``step`` of
+  ``make_vec("bearings_v0", num_envs=64)`` (256 agent slots, random actions, auto-reset), in
+  this process and split over two worker processes. With ``env_step_bearings_4`` in the same
+  run the table adds the agent transitions per second of each and their ratios to the
+  PettingZoo environment's.
 
 Usage: ``infoseek timing [--repeats R] [--only NAME ...] [--json PATH]``.
 """
@@ -52,6 +57,8 @@ TARGETS: dict[str, float | None] = {
     "decision_pairwise_4_uniform": 10.0,
     "env_step_bearings_4": None,
     "env_step_beacon_4": None,
+    "vec_step_bearings_64": None,
+    "vec_step_bearings_64_2_workers": None,
 }
 BENCHMARKS = tuple(TARGETS)
 
@@ -251,6 +258,42 @@ def _env_step_times(env_id: str, repeats: int) -> np.ndarray:
     return 1e3 * np.asarray(times)
 
 
+def _vec_step_times(n_workers: int, repeats: int) -> np.ndarray:
+    from infoseek.envs import make_vec
+
+    venv = make_vec("bearings_v0", num_envs=64, n_workers=n_workers)
+    try:
+        venv.seed(2)
+        venv.reset()
+        rng = np.random.default_rng(2)
+        low, high = venv.action_space.low, venv.action_space.high
+        venv.step(rng.uniform(low, high, size=(venv.num_envs, *venv.action_space.shape)))
+        times: list[float] = []
+        for _ in range(repeats):
+            actions = rng.uniform(low, high, size=(venv.num_envs, *venv.action_space.shape))
+            start = time.perf_counter()
+            venv.step(actions)
+            times.append(time.perf_counter() - start)
+    finally:
+        venv.close()
+    return 1e3 * np.asarray(times)
+
+
+def _throughputs(rows: dict[str, Any]) -> None:
+    """Agent transitions per second of the env benchmarks, and the vector env's speed-ups."""
+    slots = {"env_step_bearings_4": 4, "vec_step_bearings_64": 256}
+    slots["vec_step_bearings_64_2_workers"] = 256
+    rates = {n: k / (rows[n]["median_ms"] / 1e3) for n, k in slots.items() if n in rows}
+    for name, rate in rates.items():
+        line = f"{name}: {rate:,.0f} agent transitions/s"
+        if name != "env_step_bearings_4" and "env_step_bearings_4" in rates:
+            ratio = rate / rates["env_step_bearings_4"]
+            rows[f"{name}_over_env_step"] = {"ratio": ratio}
+            line += f" ({ratio:.2f}x the PettingZoo env)"
+        rows[name]["agent_transitions_per_s"] = rate
+        print(line)
+
+
 def _run(selected: list[str], repeats: int) -> dict[str, np.ndarray]:
     results: dict[str, np.ndarray] = {}
     results.update(_mi_calls(repeats, set(selected)))
@@ -268,6 +311,9 @@ def _run(selected: list[str], repeats: int) -> dict[str, np.ndarray]:
     ):
         if name in selected:
             results[name] = _env_step_times(env_id, repeats)
+    for name, workers in (("vec_step_bearings_64", 1), ("vec_step_bearings_64_2_workers", 2)):
+        if name in selected:
+            results[name] = _vec_step_times(workers, repeats)
     return results
 
 
@@ -309,6 +355,7 @@ def run_timing(args: argparse.Namespace) -> int:
         ratio = rows["mi_single_general"]["median_ms"] / rows["mi_single_fast"]["median_ms"]
         rows["general_over_fast"] = {"ratio": ratio}
         print(f"general path / fast path: {ratio:.1f}x")
+    _throughputs(rows)
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps({"machine": machine, "results": rows}, indent=2))
