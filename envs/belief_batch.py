@@ -90,6 +90,21 @@ def _log_ess_rows(log_weights: FloatArray) -> FloatArray:
     return 2.0 * logsumexp_rows(log_weights) - logsumexp_rows(2.0 * log_weights)
 
 
+def _log_ess_of_rows(log_weights: FloatArray) -> FloatArray:
+    """:func:`_log_ess_rows`, computed once for all rows of equal weights (after resampling
+    every row is ``-log N`` throughout, and equal rows give equal results)."""
+    uniform = np.all(log_weights == log_weights[:, :1], axis=1)
+    out = np.empty(log_weights.shape[0])
+    values = log_weights[uniform, 0]
+    for value in np.unique(values):
+        first = np.flatnonzero(uniform & (log_weights[:, 0] == value))
+        out[first] = _log_ess_rows(log_weights[first[:1]])[0]
+    rest = np.flatnonzero(~uniform)
+    if rest.size:
+        out[rest] = _log_ess_rows(log_weights[rest])
+    return out
+
+
 def _log_ess(log_weights: FloatArray) -> float:
     return float(_log_ess_rows(log_weights[None])[0])
 
@@ -310,8 +325,8 @@ class BeliefBatch:
             log_z = logsumexp_rows(full)
             accept = np.isfinite(log_z) & (log_z >= DEGENERATE_LOG_EVIDENCE) & (counts > 0)
             if self._tempering_on() and self.max_tempering_stages > 1:
-                log_floor = math.log(self.tempering_ess) + _log_ess_rows(self.log_weights)
-                accept &= _log_ess_rows(full) >= log_floor
+                log_floor = math.log(self.tempering_ess) + _log_ess_of_rows(self.log_weights)
+                accept &= 2.0 * log_z - logsumexp_rows(2.0 * full) >= log_floor
         plain = np.flatnonzero(accept)
         new_lw = full - np.where(accept, log_z, 0.0)[:, None]
         special = [k for k in live if not accept[k]]
@@ -516,8 +531,10 @@ class BeliefBatch:
             std = self.roughening * spread * n ** (-1.0 / d)
         else:
             std = move_scale * np.maximum(spread, 1e-12 * width)
-        noise = np.stack([rng.standard_normal((n, d)).T for rng in rngs])
-        jittered = columns + std[:, :, None] * noise
+        noise = np.empty((r_rows, n, d))
+        for row, rng in enumerate(rngs):
+            rng.standard_normal(out=noise[row])
+        jittered = columns + std[:, :, None] * noise.transpose(0, 2, 1)
         low_all, high_all = space.low_array, space.high_array
         for j in np.flatnonzero(~space.periodic_mask):  # loop over coordinates, not particles
             row = jittered[:, j]

@@ -3,10 +3,9 @@
 **Team, parameter sharing.** ``infoseek.baselines.make_training_vec_env(env_id, env_kwargs,
 n_envs=k)`` turns ``k`` copies of the parallel environment into one SB3 ``VecEnv`` with one slot
 per agent per copy (``k * n_agents`` slots), so a single PPO model learns from every agent's
-transitions. It is SuperSuit's ``pettingzoo_env_to_vec_env_v1`` + ``concat_vec_envs_v1`` with
-two fixes that the plain SuperSuit chain lacks: a working ``seed`` (SB3 calls ``venv.seed``,
-which SuperSuit's adapter does not have: ``'ConcatVecEnv' object has no attribute 'seed'``) and
-infos reduced to numbers plus SB3's ``"TimeLimit.truncated"`` and ``"episode"`` records. The
+transitions. It is ``infoseek.envs.make_vec``: the copies are rows of one batched simulator
+(no per-copy environment objects), with SB3's conventions (a working ``seed``, auto-reset,
+``"TimeLimit.truncated"`` and ``"episode"`` records, infos of numbers only). The
 trained model acts for every agent through ``infoseek.baselines.TrainedPolicy`` and is scored
 on seeded episodes of the real environment by ``infoseek.baselines.evaluate_policy``.
 

@@ -209,14 +209,17 @@ class BearingSensor:
         # the one at a + |r| has -(a^2 + 2 a |r|)/(2 s^2). Exponents are clipped at -700
         # (relative terms < 1e-304 are irrelevant next to 1) because underflowing exp() into
         # subnormals is an order of magnitude slower.
-        total = np.zeros_like(r)
+        total: FloatArray | None = None  # the sum of the image terms (0.0 + x is x: start at x)
         for a, sign in self._image_terms:
             arg = r * (-sign * 2.0 * a * inv_2s2)
             arg -= a * a * inv_2s2
             np.maximum(arg, -700.0, out=arg)
-            total += np.exp(arg, out=arg)
-        result = np.log1p(total, out=total)
-        result -= r * r * inv_2s2
+            term = np.exp(arg, out=arg)
+            total = term if total is None else np.add(total, term, out=total)
+        result = np.log1p(total, out=total) if total is not None else np.zeros_like(r)
+        np.multiply(r, r, out=r)
+        r *= inv_2s2
+        result -= r
         result += self._log_norm
         return result
 
