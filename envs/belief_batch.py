@@ -329,7 +329,7 @@ class BeliefBatch:
                 accept &= 2.0 * log_z - logsumexp_rows(2.0 * full) >= log_floor
         plain = np.flatnonzero(accept)
         new_lw = full - np.where(accept, log_z, 0.0)[:, None]
-        special = [k for k in live if not accept[k]]
+        special = [int(k) for k in live if not accept[k]]
         if plain.size == k_rows:
             self.set_log_weights(new_lw)
         elif plain.size:

@@ -39,6 +39,7 @@ reads ``log(V_c)``, the estimator's floor.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -101,7 +102,7 @@ def _cell_entropy(
     return _plug_in(mass)
 
 
-def _plug_in(mass: FloatArray) -> tuple[float, int]:
+def _plug_in(mass: NDArray[Any]) -> tuple[float, int]:
     """``-sum P_c log P_c`` of the non-empty cells of ``mass`` (renormalised), and their count."""
     mass = mass[mass > 0]
     mass = mass / mass.sum()
@@ -180,8 +181,8 @@ def adaptive_histogram_entropy_rows(
     scaled = np.empty((k_rows, n, d))
     for j in range(d):  # column by column: numpy is slow on (..., d) broadcasts of small d
         scaled[:, :, j] = (particles[:, :, j] - low[j]) / width[j]
-    for j in np.flatnonzero(np.asarray(space.periodic, dtype=bool)):
-        scaled[:, :, j] = _unroll_periodic(np.mod(scaled[:, :, j], 1.0))
+    for angle in np.flatnonzero(np.asarray(space.periodic, dtype=bool)):
+        scaled[:, :, angle] = _unroll_periodic(np.mod(scaled[:, :, angle], 1.0))
     box_low, box_high = _weighted_boxes(scaled, weights)
     side = np.maximum(box_high - box_low, BOX_FLOOR)
     ess = np.array([1.0 / np.dot(w, w) for w in weights])
