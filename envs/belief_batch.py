@@ -534,14 +534,17 @@ class BeliefBatch:
         noise = np.empty((r_rows, n, d))
         for row, rng in enumerate(rngs):
             rng.standard_normal(out=noise[row])
-        jittered = columns + std[:, :, None] * noise.transpose(0, 2, 1)
+        result = noise  # jittered in place, column by column (numpy is slow on (N, d) rows)
         low_all, high_all = space.low_array, space.high_array
-        for j in np.flatnonzero(~space.periodic_mask):  # loop over coordinates, not particles
-            row = jittered[:, j]
-            out = (row < low_all[j]) | (row > high_all[j])
+        for j in range(d):
+            column = result[:, :, j]
+            column *= std[:, j : j + 1]
+            column += columns[:, j]
+            if space.periodic_mask[j]:
+                continue
+            out = (column < low_all[j]) | (column > high_all[j])
             if out.any():
-                row[out] = reflect_into_interval(row[out], low_all[j], high_all[j])
-        result = np.ascontiguousarray(jittered.transpose(0, 2, 1))
+                column[out] = reflect_into_interval(column[out], low_all[j], high_all[j])
         if idx.size:
             result = space.wrap(result)
         return result
