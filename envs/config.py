@@ -102,21 +102,6 @@ def pairwise_distances(positions: FloatArray) -> FloatArray:
     return np.sqrt(np.einsum("ijk,ijk->ij", diff, diff))
 
 
-def separation_violations(positions: FloatArray, min_separation: float) -> NDArray[np.int64]:
-    """Per-agent count of violated pairs of eq. 2 (distance strictly below ``min_separation``).
-
-    Args:
-        positions: ``(A, 2)`` vehicle positions.
-        min_separation: The minimum separation :math:`\\bar d`.
-
-    Returns:
-        ``(A,)`` number of other vehicles closer than ``min_separation`` to each vehicle.
-    """
-    close = pairwise_distances(positions) < min_separation
-    np.fill_diagonal(close, False)
-    return close.sum(axis=1).astype(np.int64)
-
-
 class SearchConfig:
     """Validated settings of a search environment (the keywords of every env constructor).
 

@@ -34,17 +34,24 @@ FloatArray = NDArray[np.float64]
 ObsArray = NDArray[np.float32]
 BoolArray = NDArray[np.bool_]
 
-__all__ = ["SearchCore", "StepResult", "batched_separation_violations"]
+__all__ = ["SearchCore", "StepResult", "separation_violations"]
 
 
-def batched_separation_violations(
-    positions: FloatArray, min_separation: float
-) -> NDArray[np.int64]:
-    """``(B, A)`` per-agent count of violated pairs of eq. 2 for ``(B, A, 2)`` positions."""
-    diff = positions[:, :, None, :] - positions[:, None, :, :]
-    close = np.sqrt(np.einsum("bijk,bijk->bij", diff, diff)) < min_separation
-    close[:, np.arange(positions.shape[1]), np.arange(positions.shape[1])] = False
-    return close.sum(axis=2).astype(np.int64)
+def separation_violations(positions: FloatArray, min_separation: float) -> NDArray[np.int64]:
+    """Per-agent count of violated pairs of eq. 2 (distance strictly below ``min_separation``).
+
+    Args:
+        positions: ``(..., A, 2)`` vehicle positions (any leading batch shape, e.g. ``(B,)``).
+        min_separation: The minimum separation :math:`\\bar d`.
+
+    Returns:
+        ``(..., A)`` number of other vehicles closer than ``min_separation`` to each vehicle.
+    """
+    diff = positions[..., :, None, :] - positions[..., None, :, :]
+    close = np.sqrt(np.einsum("...ijk,...ijk->...ij", diff, diff)) < min_separation
+    diagonal = np.arange(positions.shape[-2])
+    close[..., diagonal, diagonal] = False
+    return close.sum(axis=-1).astype(np.int64)
 
 
 @dataclass(frozen=True)
@@ -161,7 +168,7 @@ class SearchCore:
         self.recovered[envs] = False
         self.entropies.reshape(-1)[index] = self.beliefs.entropy(index)
         positions = config.vehicle.position(self.states[envs])
-        self.violations[envs] = batched_separation_violations(positions, config.min_separation)
+        self.violations[envs] = separation_violations(positions, config.min_separation)
         self._summarise(index)
         self.started[envs] = True
 
@@ -203,7 +210,7 @@ class SearchCore:
         self.beliefs.resample_if_needed()
         self.entropies = self.beliefs.entropy().reshape(b, a)
         self.cycles += 1
-        self.violations = batched_separation_violations(positions, config.min_separation)
+        self.violations = separation_violations(positions, config.min_separation)
         self._summarise(None)
 
         rewards = (previous - self.entropies) - config.separation_penalty * self.violations

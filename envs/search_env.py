@@ -95,9 +95,8 @@ from infoseek.envs.config import (
     SearchConfig,
     clustered_start_positions,
     pairwise_distances,
-    separation_violations,
 )
-from infoseek.envs.core import SearchCore
+from infoseek.envs.core import SearchCore, separation_violations
 
 FloatArray = NDArray[np.float64]
 ObsArray = NDArray[np.float32]
