@@ -12,8 +12,8 @@ Subcommands:
   (:mod:`infoseek.experiments.bench`, :mod:`infoseek.experiments.store`), then a summary table.
 * ``infoseek plot DIR``: the paper's Fig. 1 from a results store
   (:mod:`infoseek.experiments.plot`).
-* ``infoseek reproduce fig1|fig2``: the trials and plots of the paper's figures with the paper's
-  settings (:mod:`infoseek.experiments.reproduce`).
+* ``infoseek reproduce fig1|fig2|beacon``: the trials and plots of the paper's figures with the
+  paper's settings, and the beacon Monte Carlo study (:mod:`infoseek.experiments.reproduce`).
 * ``infoseek claims DIR``: paired statistical tests of the paper's Fig. 1 claims on stored
   trials (:mod:`infoseek.experiments.claims`).
 * ``infoseek verify DIR``: rerun stored trials from their seeds and report the records the
@@ -140,7 +140,7 @@ def run_bench_command(args: argparse.Namespace) -> int:
         default_steps,
     )
 
-    if args.trials < 1:
+    if args.trials is not None and args.trials < 1:
         raise ValueError(f"--trials must be >= 1, got {args.trials}")
     if args.steps is not None and args.steps < 1:
         raise ValueError(f"--steps must be >= 1, got {args.steps}")
@@ -244,9 +244,16 @@ def run_plot_command(args: argparse.Namespace) -> int:
 
 def add_reproduce_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``infoseek reproduce``."""
-    parser.add_argument("figure", choices=("fig1", "fig2"), help="which figure of the paper")
     parser.add_argument(
-        "--trials", type=int, default=1000, help="trials per curve (fig1; default 1000)"
+        "figure",
+        choices=("fig1", "fig2", "beacon"),
+        help="which figure: the paper's fig1 or fig2, or the beacon Monte Carlo study",
+    )
+    parser.add_argument(
+        "--trials",
+        type=int,
+        default=None,
+        help="trials per curve (fig1: default 1000; beacon: default 500)",
     )
     parser.add_argument(
         "--steps", type=int, default=None, help="steps per trial (default: the env's episode)"
@@ -262,10 +269,10 @@ def add_reproduce_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_reproduce_command(args: argparse.Namespace) -> int:
-    """``infoseek reproduce fig1|fig2``."""
+    """``infoseek reproduce fig1|fig2|beacon``."""
     from infoseek.experiments import reproduce
 
-    if args.trials < 1:
+    if args.trials is not None and args.trials < 1:
         raise ValueError(f"--trials must be >= 1, got {args.trials}")
     if args.steps is not None and args.steps < 1:
         raise ValueError(f"--steps must be >= 1, got {args.steps}")
@@ -287,16 +294,16 @@ def run_reproduce_command(args: argparse.Namespace) -> int:
             print(f"wrote {path}")
         return 0
     backend, workers = _execution(args)
-    plan = reproduce.fig1_plan(
-        trials=args.trials, steps=args.steps, particles=args.particles, seed=args.seed
-    )
+    make_plan = reproduce.beacon_plan if args.figure == "beacon" else reproduce.fig1_plan
+    trials = args.trials if args.trials is not None else (500 if args.figure == "beacon" else 1000)
+    plan = make_plan(trials=trials, steps=args.steps, particles=args.particles, seed=args.seed)
     store = out / "store"
     code = _run_and_summarise(plan, store, backend, workers, args)
     if code != 0:
         return code
     from infoseek.experiments.plot import plot_fig1_from_store
 
-    for path in plot_fig1_from_store(store, out / "fig1"):
+    for path in plot_fig1_from_store(store, out / args.figure):
         print(f"wrote {path}")
     return 0
 

@@ -8,7 +8,8 @@ records it per step for agent 0's belief (``mass_agent0``, :mod:`infoseek.experi
 
 Panels, each drawn only if the store has its data:
 
-* (a) ``n_v = 4``: single-node approximation dashed, pairwise-node approximation solid;
+* (a) ``n_v = 4``: single-node approximation dashed, pairwise-node approximation solid, and
+  the random (dotted) and lawnmower (dash-dot) baselines where the store has them;
 * (b) pairwise-node approximation for every stored fleet size (the paper: 2, 3, 4 and 10).
 
 A store with neither (e.g. only random or lawnmower trials) gets one panel with every stored
@@ -94,19 +95,28 @@ def fig1_panels(groups: Sequence[tuple[str, int]]) -> list[tuple[str, list[tuple
         groups: The stored ``(planner, n_agents)`` groups.
 
     Returns:
-        ``[(panel id, [(planner, n_agents), ...]), ...]`` with panel ids ``"a"`` (single and
-        pairwise at ``n_v = 4``), ``"b"`` (pairwise, every stored fleet size, ascending) or,
-        when neither applies, ``"all"`` (every group).
+        ``[(panel id, [(planner, n_agents), ...]), ...]`` with panel ids ``"a"`` (single,
+        pairwise and, where stored, the random and lawnmower baselines at ``n_v = 4``), ``"b"``
+        (pairwise, every stored fleet size, ascending) or, when neither applies, ``"all"``
+        (every group).
     """
     available = set(groups)
-    panel_a = [(p, 4) for p in ("single", "pairwise") if (p, 4) in available]
+    panel_a = [(p, 4) for p in _PANEL_A_STYLES if (p, 4) in available]
     panel_b = sorted((g for g in available if g[0] == "pairwise"), key=lambda g: g[1])
     panels = [(name, keys) for name, keys in (("a", panel_a), ("b", panel_b)) if keys]
     return panels or [("all", sorted(available))]
 
 
+#: Line style and label of the ``n_v = 4`` curves of panel (a).
+_PANEL_A_STYLES = {
+    "single": ("--", "C0", "single-node"),
+    "pairwise": ("-", "C0", "pairwise-node"),
+    "random": (":", "C7", "random"),
+    "lawnmower": ("-.", "C7", "lawnmower"),
+}
+
 _PANEL_TITLES = {
-    "a": "(a) $n_v = 4$: single-node (dashed), pairwise-node (solid)",
+    "a": "(a) $n_v = 4$",
     "b": "(b) pairwise-node, varying fleet size",
     "all": "all stored runs",
 }
@@ -143,8 +153,8 @@ def plot_fig1(
             offset = 0.12 * (position - (len(keys) - 1) / 2)
             count = f"({matrix.shape[0]} trials)"
             if panel == "a":
-                label = f"{planner}-node {count}"
-                style, color = ("--" if planner == "single" else "-"), "C0"
+                style, color, name = _PANEL_A_STYLES[planner]
+                label = f"{name} {count}"
             elif panel == "b":
                 label, style, color = f"$n_v = {n_agents}$ {count}", "-", f"C{position % 10}"
             else:

@@ -21,6 +21,13 @@ a) and of the pairwise-node planner with 2, 3, 4 and 10 airplanes (panel b), sto
 ``n_v = 4`` curve is shared by both panels. Other settings are the environment's defaults
 (2000 particles per vehicle, 40 x 40 domain, uniform prior, episode length ``max_cycles``).
 
+Beacon Monte Carlo (``infoseek reproduce beacon``; not in the paper, which shows one beacon
+episode): Fig. 1-style paired trials on ``beacon_v0`` (500 per curve by default) of the
+pairwise-node, single-node, random and lawnmower policies with ``n_v = 4`` quadrotors and of the
+pairwise-node planner with 2 and 3, stored in ``OUT/store`` and drawn as ``OUT/beacon.png`` /
+``.svg``; ``infoseek claims OUT/store`` tests whether pairwise beats single (Claim A) and
+whether larger fleets localise faster (Claim B). Settings are ``beacon_v0``'s defaults.
+
 Fig. 2 (section IV.B, rescue-beacon search, ``beacon_v0``): one episode of four quadrotors with
 the pairwise-node planner; the environment's ``rgb_array`` frames (agent 0's particles, the
 MMSE estimate, the vehicle trails and the true beacon) after steps 1, 2, 5 and 20 form a 2 x 2
@@ -53,6 +60,15 @@ FIG1_GROUPS: tuple[tuple[str, int], ...] = (
     ("pairwise", 3),
     ("pairwise", 10),
 )
+BEACON_ENV = "beacon_v0"
+BEACON_GROUPS: tuple[tuple[str, int], ...] = (
+    ("pairwise", 4),
+    ("single", 4),
+    ("random", 4),
+    ("lawnmower", 4),
+    ("pairwise", 2),
+    ("pairwise", 3),
+)
 FIG2_ENV = "beacon_v0"
 FIG2_AGENTS = 4
 FIG2_PLANNER = "pairwise"
@@ -66,18 +82,31 @@ def fig1_plan(
     trials: int = 1000, steps: int | None = None, particles: int | None = None, seed: int = 0
 ) -> BenchPlan:
     """The benchmark plan of Fig. 1 (``steps`` default: the environment's episode length)."""
+    return _plan(FIG1_ENV, FIG1_GROUPS, trials, steps, particles, seed)
+
+
+def beacon_plan(
+    trials: int = 500, steps: int | None = None, particles: int | None = None, seed: int = 0
+) -> BenchPlan:
+    """The benchmark plan of the beacon Monte Carlo study (module docstring)."""
+    return _plan(BEACON_ENV, BEACON_GROUPS, trials, steps, particles, seed)
+
+
+def _plan(
+    env: str,
+    groups: tuple[tuple[str, int], ...],
+    trials: int,
+    steps: int | None,
+    particles: int | None,
+    seed: int,
+) -> BenchPlan:
     env_kwargs: dict[str, Any] = {}
     if particles is not None:
         env_kwargs["n_particles"] = particles
     if steps is None:
-        steps = default_steps(FIG1_ENV, env_kwargs)
+        steps = default_steps(env, env_kwargs)
     return BenchPlan(
-        env=FIG1_ENV,
-        env_kwargs=env_kwargs,
-        steps=steps,
-        seed=seed,
-        groups=list(FIG1_GROUPS),
-        trials=trials,
+        env=env, env_kwargs=env_kwargs, steps=steps, seed=seed, groups=list(groups), trials=trials
     )
 
 

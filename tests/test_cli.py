@@ -16,7 +16,13 @@ from PIL import Image
 from infoseek.experiments.claims import format_p_value, mass_bands
 from infoseek.experiments.cli import main
 from infoseek.experiments.plot import fig1_panels, mass_curves
-from infoseek.experiments.store import MANIFEST_NAME, PARTS_NAME, TRIALS_NAME, read_records
+from infoseek.experiments.store import (
+    MANIFEST_NAME,
+    PARTS_NAME,
+    TRIALS_NAME,
+    read_manifest,
+    read_records,
+)
 
 BENCH_TINY = ["--agents", "2", "--steps", "3", "--particles", "100", "--workers", "1"]
 
@@ -119,6 +125,22 @@ def test_reproduce_fig1_smoke(tmp_path: Path, capsys: pytest.CaptureFixture[str]
         ("single", 4),
     ]
     assert (tmp_path / "fig1.png").exists() and (tmp_path / "fig1.svg").exists()
+
+
+def test_reproduce_beacon_smoke(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    args = ["reproduce", "beacon", "--trials", "1", "--steps", "2", "--particles", "100"]
+    assert main([*args, "--workers", "1", "--out", str(tmp_path)]) == 0
+    records = read_records(tmp_path / "store")
+    assert sorted((r["planner"], r["n_agents"]) for r in records) == [
+        ("lawnmower", 4),
+        ("pairwise", 2),
+        ("pairwise", 3),
+        ("pairwise", 4),
+        ("random", 4),
+        ("single", 4),
+    ]
+    assert read_manifest(tmp_path / "store")["config"]["env"] == "beacon_v0"
+    assert (tmp_path / "beacon.png").exists() and (tmp_path / "beacon.svg").exists()
 
 
 def test_reproduce_fig2_smoke(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
