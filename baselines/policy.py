@@ -102,20 +102,26 @@ def read_run_config(model_path: str | Path) -> dict[str, Any] | None:
         return json.load(handle)
 
 
-def _bounds_agree(space: Any, other: Any) -> bool:
-    """Equal Box bounds wherever both are finite (models saved before the observation bounds
-    became finite stored +-inf for positions)."""
-    for name in ("low", "high"):
-        a = np.asarray(getattr(space, name, 0.0), dtype=np.float64)
-        b = np.asarray(getattr(other, name, 0.0), dtype=np.float64)
-        both = np.isfinite(a) & np.isfinite(b)
-        if not np.array_equal(a[both], b[both]):
-            return False
-    return True
+def _bounds_within(space: Any, model_space: Any) -> bool:
+    """Whether the Box ``space`` lies inside ``model_space`` wherever both bounds are finite.
+
+    The environment's position bounds grow with its episode length (``max_cycles``), so a
+    policy trained on 60-step episodes may act in 20-step ones, whose observations lie inside
+    the trained range; models saved before the bounds became finite stored +-inf.
+    """
+    low = np.asarray(getattr(space, "low", 0.0), dtype=np.float64)
+    high = np.asarray(getattr(space, "high", 0.0), dtype=np.float64)
+    model_low = np.asarray(getattr(model_space, "low", 0.0), dtype=np.float64)
+    model_high = np.asarray(getattr(model_space, "high", 0.0), dtype=np.float64)
+    lows = np.isfinite(low) & np.isfinite(model_low)
+    highs = np.isfinite(high) & np.isfinite(model_high)
+    return bool(np.all(low[lows] >= model_low[lows]) and np.all(high[highs] <= model_high[highs]))
 
 
 def check_spaces(model: BaseAlgorithm, env: Any, where: str = "load_policy") -> None:
-    """Raise ``ValueError`` unless every agent's spaces in ``env`` equal the model's.
+    """Raise ``ValueError`` unless every agent's spaces in ``env`` fit the model's: the same
+    observation shape with bounds inside the model's (:func:`_bounds_within`), the same action
+    space.
 
     Args:
         model: The loaded SB3 model.
@@ -125,13 +131,13 @@ def check_spaces(model: BaseAlgorithm, env: Any, where: str = "load_policy") -> 
     for agent in env.possible_agents:
         observation_space = env.observation_space(agent)
         action_space = env.action_space(agent)
-        if observation_space.shape != model.observation_space.shape or not _bounds_agree(
+        if observation_space.shape != model.observation_space.shape or not _bounds_within(
             observation_space, model.observation_space
         ):
             raise ValueError(
-                f"{where}: observation space of {agent} {observation_space} does not match the "
-                f"model's {model.observation_space} (trained for another environment or number "
-                "of agents?)"
+                f"{where}: observation space of {agent} {observation_space} does not fit in the "
+                f"model's {model.observation_space} (trained for another environment, number of "
+                "agents, or shorter episodes?)"
             )
         if action_space != model.action_space:
             raise ValueError(

@@ -82,6 +82,18 @@ def trained_runs(tmp_path_factory):
     return runs
 
 
+def test_a_policy_acts_in_shorter_episodes_but_not_in_longer_ones(trained_runs):
+    """Position bounds grow with max_cycles: a model trained on 10-step episodes fits a 5-step
+    environment (its observations lie inside the trained range), not a 40-step one."""
+    out, _ = trained_runs["ppo", "continuous"]
+    shorter = envs.make("bearings_v0", n_agents=2, n_particles=100, max_cycles=5)
+    observations, infos = shorter.reset(seed=0)
+    assert set(load_policy(out, shorter).act(observations, infos)) == set(shorter.agents)
+    longer = envs.make("bearings_v0", n_agents=2, n_particles=100, max_cycles=40)
+    with pytest.raises(ValueError, match="does not fit in the model's"):
+        load_policy(out, longer)
+
+
 @pytest.mark.parametrize(("algo", "action_type"), RUNS)
 def test_training_writes_model_config_curve_and_checkpoints(trained_runs, algo, action_type):
     out, result = trained_runs[algo, action_type]
