@@ -349,13 +349,31 @@ class _Recorder:
 def run_trial(spec: TrialSpec) -> dict[str, Any]:
     """Run one trial; returns its record (see the module docstring for the fields).
 
-    The trial runs with one BLAS thread (``threadpoolctl``), whatever the machine: OpenBLAS
-    sums a matrix product in another order with another number of threads, and the planners'
-    decisions depend on such products, so a stored trial reproduces on any machine only if
-    the thread count is fixed.
+    The trial runs with one BLAS thread (``threadpoolctl``) and, for a trained policy, one torch
+    thread, whatever the machine: OpenBLAS sums a matrix product in another order with another
+    number of threads, and the planners' decisions depend on such products, so a stored trial
+    reproduces on any machine only if the thread count is fixed.
     """
-    with threadpool_limits(limits=1, user_api="blas"):
+    with threadpool_limits(limits=1, user_api="blas"), _one_torch_thread(spec.planner):
         return _run_trial(spec)
+
+
+@contextlib.contextmanager
+def _one_torch_thread(planner: str) -> Iterator[None]:
+    """A trained policy's trial runs torch on one thread, like BLAS: its matrix products then
+    sum in one order on every machine, and its decision latency is not that of threads
+    competing for a busy machine's cores."""
+    if not planner.startswith("policy:"):
+        yield
+        return
+    import torch
+
+    previous = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(previous)
 
 
 def _run_trial(spec: TrialSpec) -> dict[str, Any]:
