@@ -102,6 +102,8 @@ def fig1_panels(groups: Sequence[tuple[str, int]]) -> list[tuple[str, list[tuple
     """
     available = set(groups)
     panel_a = [(p, 4) for p in _PANEL_A_STYLES if (p, 4) in available]
+    if not {("single", 4), ("pairwise", 4)} & available:
+        panel_a = []  # the baselines alone are no panel (a)
     panel_b = sorted((g for g in available if g[0] == "pairwise"), key=lambda g: g[1])
     panels = [(name, keys) for name, keys in (("a", panel_a), ("b", panel_b)) if keys]
     return panels or [("all", sorted(available))]

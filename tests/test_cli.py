@@ -93,8 +93,11 @@ def test_plot_smoke(bench_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixtu
 def test_fig1_panels_follow_the_paper() -> None:
     groups = [("pairwise", 10), ("single", 4), ("pairwise", 2), ("pairwise", 4), ("random", 4)]
     assert fig1_panels(groups) == [
-        ("a", [("single", 4), ("pairwise", 4)]),
+        ("a", [("single", 4), ("pairwise", 4), ("random", 4)]),
         ("b", [("pairwise", 2), ("pairwise", 4), ("pairwise", 10)]),
+    ]
+    assert fig1_panels([("random", 4), ("lawnmower", 4)]) == [
+        ("all", [("lawnmower", 4), ("random", 4)])
     ]
     assert fig1_panels([("single", 4)]) == [("a", [("single", 4)])]
     assert fig1_panels([("pairwise", 3)]) == [("b", [("pairwise", 3)])]
