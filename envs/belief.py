@@ -121,6 +121,7 @@ __all__ = [
     "BeliefUpdate",
     "BeliefView",
     "ParticleBelief",
+    "belief_view",
     "check_belief_settings",
 ]
 
@@ -363,12 +364,7 @@ class ParticleBelief:
 
     def view(self) -> BeliefView:
         """Read-only snapshot (arrays are shared, never mutated in place afterwards)."""
-        return BeliefView(
-            particles=self.particles,
-            weights=self.weights,
-            log_weights=self.log_weights,
-            space=self.space,
-        )
+        return belief_view(self._batch, 0)
 
     # ------------------------------------------------------------------ filter cycle
     def predict(self, dt: float = 1.0) -> None:
@@ -506,6 +502,17 @@ class ParticleBelief:
             f"ParticleBelief(n_particles={self.n_particles}, dim={self.dim}, "
             f"ess={self.ess:.1f}, motion={self.motion!r})"
         )
+
+
+def belief_view(batch: BeliefBatch, row: int) -> BeliefView:
+    """Read-only snapshot of belief ``row`` of ``batch`` (its arrays are shared: a batch
+    replaces its arrays rather than writing into them)."""
+    return BeliefView(
+        particles=_readonly(batch.particles[row]),
+        weights=_readonly(batch.weights[row]),
+        log_weights=_readonly(batch.log_weights[row]),
+        space=batch.space,
+    )
 
 
 def _settings_of(batch: BeliefBatch) -> dict[str, Any]:

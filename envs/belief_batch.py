@@ -284,22 +284,12 @@ class BeliefBatch:
         each = np.empty((m, k_rows, n))
         for g in range(groups):  # one likelihood call per group, over all its beliefs
             rows = self.particles[g * per : (g + 1) * per].reshape(per * n, d)
-            loglik = np.asarray(sensor.log_likelihood(z[g], poses[g], rows), dtype=np.float64)
-            if loglik.shape != (m, per * n):
-                raise ValueError(
-                    f"sensor {getattr(sensor, 'name', sensor)!r}: log_likelihood returned shape "
-                    f"{loglik.shape}, expected {(m, per * n)}"
-                )
+            loglik = _sensor_log_likelihood(sensor, z[g], poses[g], rows)
             each[:, g * per : (g + 1) * per] = loglik.reshape(m, per, n)
         # a non-received observation adds exactly 0.0: the sum is that of the received ones
         if not np.all(received):
             each = np.where(received.T[:, :, None], each, 0.0)
-        total = each.sum(axis=0)
-        if np.any(np.isnan(total)) or np.any(total == np.inf):
-            raise ValueError(
-                f"sensor {getattr(sensor, 'name', sensor)!r}: log_likelihood returned NaN or +inf"
-            )
-        return total
+        return _checked_total(sensor, each.sum(axis=0))
 
     def update(
         self, sensor: Any, z: FloatArray, poses: FloatArray, received: BoolArray
@@ -386,18 +376,8 @@ class BeliefBatch:
     def _row_log_likelihood(
         sensor: Any, z: FloatArray, poses: FloatArray, particles: FloatArray
     ) -> FloatArray:
-        loglik = np.asarray(sensor.log_likelihood(z, poses, particles), dtype=np.float64)
-        if loglik.shape != (z.shape[0], particles.shape[0]):
-            raise ValueError(
-                f"sensor {getattr(sensor, 'name', sensor)!r}: log_likelihood returned shape "
-                f"{loglik.shape}, expected {(z.shape[0], particles.shape[0])}"
-            )
-        total = loglik.sum(axis=0)
-        if np.any(np.isnan(total)) or np.any(total == np.inf):
-            raise ValueError(
-                f"sensor {getattr(sensor, 'name', sensor)!r}: log_likelihood returned NaN or +inf"
-            )
-        return total
+        loglik = _sensor_log_likelihood(sensor, z, poses, particles)
+        return _checked_total(sensor, loglik.sum(axis=0))
 
     def _tempered_update(
         self,
@@ -603,6 +583,28 @@ class BeliefBatch:
         mass = np.bincount(flat.ravel(), weights=weights.ravel(), minlength=k_rows * cells)
         mass = mass.reshape(k_rows, cells)
         return (mass / mass.sum(axis=1, keepdims=True)).reshape(k_rows, gx, gy)
+
+
+def _sensor_log_likelihood(
+    sensor: Any, z: FloatArray, poses: FloatArray, particles: FloatArray
+) -> FloatArray:
+    """``(M, N)`` ``sensor.log_likelihood`` of ``(N, d)`` particles, its shape checked."""
+    loglik = np.asarray(sensor.log_likelihood(z, poses, particles), dtype=np.float64)
+    if loglik.shape != (z.shape[0], particles.shape[0]):
+        raise ValueError(
+            f"sensor {getattr(sensor, 'name', sensor)!r}: log_likelihood returned shape "
+            f"{loglik.shape}, expected {(z.shape[0], particles.shape[0])}"
+        )
+    return loglik
+
+
+def _checked_total(sensor: Any, total: FloatArray) -> FloatArray:
+    """``total`` (summed log-likelihoods), unless it holds NaN or +inf (then ``ValueError``)."""
+    if np.any(np.isnan(total)) or np.any(total == np.inf):
+        raise ValueError(
+            f"sensor {getattr(sensor, 'name', sensor)!r}: log_likelihood returned NaN or +inf"
+        )
+    return total
 
 
 def _tempering_exponent(

@@ -72,7 +72,8 @@ def _check_kwargs(value: object, name: str) -> dict[str, Any]:
     return dict(value)
 
 
-def _readonly(array: np.ndarray) -> np.ndarray:
+def read_only(array: np.ndarray) -> np.ndarray:
+    """``array``, marked read-only in place (for arrays handed out that no one may change)."""
     array.setflags(write=False)
     return array
 
@@ -283,7 +284,7 @@ class SearchConfig:
         # ---- agents and start positions
         self.possible_agents = [f"vehicle_{i}" for i in range(self.n_agents)]
         self.agent_name_mapping = {agent: i for i, agent in enumerate(self.possible_agents)}
-        self.start_positions = _readonly(
+        self.start_positions = read_only(
             self._build_start_positions(start_center, start_spacing, start_positions)
         )
 
@@ -301,7 +302,7 @@ class SearchConfig:
                 for lo, hi in zip(self.control_low, self.control_high, strict=True)
             ]
             grid = np.meshgrid(*axes, indexing="ij")
-            self.discrete_controls: FloatArray | None = _readonly(
+            self.discrete_controls: FloatArray | None = read_only(
                 np.stack([g.ravel() for g in grid], axis=-1)
             )
             self.action_space: gymnasium.spaces.Space = gymnasium.spaces.Discrete(

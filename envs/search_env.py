@@ -89,12 +89,13 @@ import numpy as np
 from numpy.typing import NDArray
 from pettingzoo import ParallelEnv
 
-from infoseek.envs.belief import BeliefView, ParticleBelief
+from infoseek.envs.belief import BeliefView, ParticleBelief, belief_view
 from infoseek.envs.config import (
     MIN_PARTICLES,
     SearchConfig,
     clustered_start_positions,
     pairwise_distances,
+    read_only,
 )
 from infoseek.envs.core import SearchCore, separation_violations
 
@@ -121,11 +122,6 @@ INFO_KEYS = (
     "posterior_mass",
     "separation_violations",
 )
-
-
-def _readonly(array: np.ndarray) -> np.ndarray:
-    array.setflags(write=False)
-    return array
 
 
 class InformationSeekingEnv(ParallelEnv):
@@ -370,7 +366,7 @@ class InformationSeekingEnv(ParallelEnv):
     ) -> tuple[dict[str, ObsArray], dict[str, dict[str, Any]]]:
         core = self._core
         flat = core.observations()[0] if flat is None else flat
-        vehicle_states = _readonly(core.states[0].copy())
+        vehicle_states = read_only(core.states[0].copy())
         observations: dict[str, ObsArray] = {}
         infos: dict[str, dict[str, Any]] = {}
         for i, agent in enumerate(self.possible_agents):
@@ -405,9 +401,7 @@ class InformationSeekingEnv(ParallelEnv):
             raise RuntimeError(f"{what} called before reset(): call reset() first")
 
     def _view(self, index: int) -> BeliefView:
-        beliefs = self._core.beliefs
-        view = ParticleBelief.row_of(beliefs, index)
-        return view.view()
+        return belief_view(self._core.beliefs, index)
 
     def true_target(self) -> FloatArray:
         """A copy of the true target state ``(d,)`` (for benchmarks only; never in observations)."""
@@ -436,7 +430,7 @@ class InformationSeekingEnv(ParallelEnv):
     def vehicle_states(self) -> FloatArray:
         """Read-only ``(A, state_dim)`` copy of every vehicle's state."""
         self._require_started("vehicle_states")
-        return _readonly(self._core.states[0].copy())
+        return read_only(self._core.states[0].copy())
 
     @property
     def cycles(self) -> int:
@@ -447,13 +441,13 @@ class InformationSeekingEnv(ParallelEnv):
     def last_measurements(self) -> FloatArray | None:
         """Read-only ``(A, obs_dim)`` measurements of the last step (``None`` before one)."""
         measured = self._core.last_measurements
-        return None if measured is None or self.cycles == 0 else _readonly(measured[0].copy())
+        return None if measured is None or self.cycles == 0 else read_only(measured[0].copy())
 
     @property
     def last_reception(self) -> NDArray[np.bool_] | None:
         """Read-only ``(A, A)`` reception matrix of the last step (``None`` before one)."""
         reception = self._core.last_reception
-        return None if reception is None or self.cycles == 0 else _readonly(reception[0].copy())
+        return None if reception is None or self.cycles == 0 else read_only(reception[0].copy())
 
     # ----------------------------------------------------------------------------- rendering
     @property

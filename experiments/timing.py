@@ -281,8 +281,11 @@ def _vec_step_times(n_workers: int, repeats: int) -> np.ndarray:
 
 def _throughputs(rows: dict[str, Any]) -> None:
     """Agent transitions per second of the env benchmarks, and the vector env's speed-ups."""
-    slots = {"env_step_bearings_4": 4, "vec_step_bearings_64": 256}
-    slots["vec_step_bearings_64_2_workers"] = 256
+    slots = {
+        "env_step_bearings_4": 4,
+        "vec_step_bearings_64": 256,
+        "vec_step_bearings_64_2_workers": 256,
+    }
     rates = {n: k / (rows[n]["median_ms"] / 1e3) for n, k in slots.items() if n in rows}
     for name, rate in rates.items():
         line = f"{name}: {rate:,.0f} agent transitions/s"
