@@ -82,7 +82,7 @@ infoseek.envs.bearings_v0.parallel_env(
     target_motion="stationary", target_motion_kwargs=None, domain_size=None,
     start_center=(5.0, 5.0), start_spacing=None, start_positions=None, min_separation=1.0,
     action_type="continuous", n_discrete_actions=5, separation_penalty=1.0,
-    resample_threshold=1.0, roughening=0.2, tempering_ess=0.1, filter_max_snr=None,
+    resample_threshold=1.0, roughening=0.2, tempering_ess=None, filter_max_snr=None,
     entropy_bins=None, belief_grid=(8, 8),
     localization_radius=1.0, localization_mass=0.9, terminate_on_localization=False,
     comm_range=inf, message_loss=0.0, belief_in_infos=False, render_mode=None,
@@ -116,8 +116,10 @@ infoseek.envs.bearings_v0.parallel_env(
 * `resample_threshold` (1.0: resample after every informative update, as the paper; 0: never),
   `roughening` (0.2; 0 disables), `entropy_bins` (None: the adaptive grid of
   :mod:`infoseek.envs.entropy`; a pair: a fixed grid): belief options.
-* `tempering_ess` (0.1; 0 disables): progressive correction of updates that would leave fewer
-  than 10% effective particles (see :mod:`infoseek.envs.belief`).
+* `tempering_ess` (None: 0.1 for the stationary target, 0 for a moving one; 0 disables):
+  progressive correction of updates that would leave fewer than 10% effective particles, whose
+  Metropolis moves target the exact posterior given every observation the belief kept (see
+  :mod:`infoseek.envs.belief`); a value > 0 with a moving target is a `ValueError`.
 * `filter_max_snr` (None): filter noise floor for sensors that support it (the beacon; see
   :mod:`infoseek.envs.search_env`); the bearing sensor does not, so it must stay `None`.
 * `belief_grid` ((8, 8)): coarse belief-mass grid in the observation.

@@ -40,13 +40,19 @@ reweights by ``exp(lambda_s L_k)`` only, resamples (systematic) and moves the pa
 ``TEMPERING_MOVE_SWEEPS`` Metropolis sweeps: Gaussian proposals of ``TEMPERING_MOVE_SCALE`` times
 the *current* per-coordinate std of the particles (so the steps shrink as they concentrate),
 each sweep ``TEMPERING_MOVE_SHRINK`` times smaller, accepted with probability
-``min(1, exp(Lambda_s (L(proposal) - L(particle))))``, ``Lambda_s = lambda_1 + ... + lambda_s``.
-The prior density is treated as locally flat (it is only known through its particles); for a
-uniform prior this is an exact Metropolis kernel for ``pi_s``. For a concentrated, non-uniform
-prior it is not: the moves then drift particles toward the current readings, ignoring the
-history, which can build a false fix from noise-dominated readings (observed on the beacon;
-``beacon_v0`` therefore sets ``tempering_ess = 0``). A kernel that also weighs the prior (e.g.
-through a density estimate of the pre-move particles) would remove that bias. A plain Gordon
+``min(1, exp(Lambda_s (L(proposal) - L(particle)) + H(proposal) - H(particle)))``,
+``Lambda_s = lambda_1 + ... + lambda_s``, with ``H(theta)`` the log-likelihood of every earlier
+observation the belief has kept (:mod:`infoseek.envs.history`). For a stationary target and the
+uniform prior ``p_0``, ``p(theta | past) ~ p_0(theta) exp(H(theta))`` exactly, so this is an
+exact Metropolis kernel for ``pi_s`` (the reflecting random-walk proposal is symmetric and
+stays in the domain): resample-move for a static parameter (Gilks & Berzuini 2001; Chopin
+2002). A belief built from given
+particles (not the prior) is treated as drawn from ``p_0`` with no observations yet. A moving
+target has no such closed form: tempering then needs ``tempering_ess = 0`` (the environments
+default to it). An earlier kernel treated the prior as locally flat (``H = 0``); for a
+concentrated prior it drifts the particles toward the current readings, ignoring the
+history, which built false fixes from noise-dominated beacon readings (``beacon_v0`` keeps
+``tempering_ess = 0``). A plain Gordon
 jitter (scale
 ``~ range * N^(-1/d)``) was tried first: it is far too small to carry the particles to a peak
 thousands of its own widths away, and too large (range of a multi-modal set) to keep them on
@@ -98,6 +104,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from infoseek.envs.belief_batch import (
+    DEFAULT_TEMPERING_ESS,
     DEGENERATE_LOG_EVIDENCE,
     SPREAD_FLOOR,
     TEMPERING_BISECTION_STEPS,
@@ -112,6 +119,7 @@ from infoseek.envs.targets import StationaryTarget, TargetMotion, TargetSpace
 FloatArray = NDArray[np.float64]
 
 __all__ = [
+    "DEFAULT_TEMPERING_ESS",
     "DEGENERATE_LOG_EVIDENCE",
     "TEMPERING_BISECTION_STEPS",
     "TEMPERING_MOVE_SCALE",
@@ -122,6 +130,7 @@ __all__ = [
     "BeliefView",
     "ParticleBelief",
     "belief_view",
+    "default_tempering_ess",
     "check_belief_settings",
 ]
 
@@ -209,7 +218,9 @@ class ParticleBelief:
             ``(0, 1]``.
         tempering_ess: Progressive-correction floor in ``[0, 1)``: an update that would make the
             ESS fall below ``tempering_ess`` times its pre-update value is applied in stages
-            (module docstring). 0 disables tempering (as does ``resample_threshold = 0``).
+            (module docstring). 0 disables tempering (as does ``resample_threshold = 0``);
+            ``None`` (default): :func:`default_tempering_ess` (0.1 for a stationary target, 0
+            for a moving one; > 0 with a moving target is a ``ValueError``).
         max_tempering_stages: Maximum number of tempering stages (>= 1; the last one applies
             whatever exponent remains).
     """
@@ -226,7 +237,7 @@ class ParticleBelief:
         roughening: float = 0.2,
         entropy_bins: tuple[int, ...] | None = None,
         recovery_fraction: float = 0.5,
-        tempering_ess: float = 0.1,
+        tempering_ess: float | None = None,
         max_tempering_stages: int = 20,
     ) -> None:
         if not isinstance(space, TargetSpace):
@@ -298,6 +309,7 @@ class ParticleBelief:
             batch.space,
             [_copy.deepcopy(batch.rngs[row])],
             **_settings_of(batch),
+            history=batch.history.of_row(row),
         )
         return new
 
@@ -527,6 +539,12 @@ def _settings_of(batch: BeliefBatch) -> dict[str, Any]:
     }
 
 
+def default_tempering_ess(motion: TargetMotion) -> float:
+    """The ``tempering_ess=None`` default: :data:`DEFAULT_TEMPERING_ESS` for a stationary target,
+    0 (off) for a moving one, whose exact posterior the tempering moves cannot target."""
+    return DEFAULT_TEMPERING_ESS if isinstance(motion, StationaryTarget) else 0.0
+
+
 def check_belief_settings(
     *,
     motion: TargetMotion | None,
@@ -534,7 +552,7 @@ def check_belief_settings(
     roughening: float,
     entropy_bins: tuple[int, ...] | None,
     recovery_fraction: float,
-    tempering_ess: float,
+    tempering_ess: float | None,
     max_tempering_stages: int,
     space: TargetSpace,
 ) -> dict[str, Any]:
@@ -555,11 +573,18 @@ def check_belief_settings(
         raise ValueError(f"roughening must be a finite float >= 0, got {roughening!r}")
     if not (np.isfinite(recovery_fraction) and 0.0 < recovery_fraction <= 1.0):
         raise ValueError(f"recovery_fraction must be in (0, 1], got {recovery_fraction!r}")
+    if tempering_ess is None:
+        tempering_ess = default_tempering_ess(motion)
     if isinstance(tempering_ess, bool) or not (
         isinstance(tempering_ess, int | float | np.integer | np.floating)
         and 0.0 <= tempering_ess < 1.0
     ):
         raise ValueError(f"tempering_ess must be a float in [0, 1), got {tempering_ess!r}")
+    if tempering_ess > 0.0 and not isinstance(motion, StationaryTarget):
+        raise ValueError(
+            f"tempering_ess > 0 needs a stationary target (its moves target the exact "
+            f"static-target posterior), got motion {motion!r}: set tempering_ess=0"
+        )
     if (
         isinstance(max_tempering_stages, bool)
         or not isinstance(max_tempering_stages, int | np.integer)

@@ -33,6 +33,7 @@ from infoseek.envs.entropy import (
     fixed_grid_entropy,
     grid_cell_index,
 )
+from infoseek.envs.history import ObservationHistory
 from infoseek.envs.resampling import systematic_resample, systematic_resample_rows
 from infoseek.envs.targets import StationaryTarget, TargetMotion, TargetSpace, reflect_into_interval
 
@@ -40,6 +41,7 @@ FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
 __all__ = [
+    "DEFAULT_TEMPERING_ESS",
     "DEGENERATE_LOG_EVIDENCE",
     "SPREAD_FLOOR",
     "TEMPERING_BISECTION_STEPS",
@@ -51,6 +53,8 @@ __all__ = [
     "logsumexp_rows",
 ]
 
+#: Progressive-correction floor of a belief of a stationary target (``tempering_ess=None``).
+DEFAULT_TEMPERING_ESS = 0.1
 #: Log evidence below which an update counts as degenerate (exp underflows in float64).
 DEGENERATE_LOG_EVIDENCE = -700.0
 #: Roughening spread floor, as a fraction of each coordinate's domain width.
@@ -165,6 +169,8 @@ class BeliefBatch:
         recovery_fraction: Fraction of particles replaced by prior samples on degeneracy.
         tempering_ess: Progressive-correction floor (0 disables).
         max_tempering_stages: Most tempering stages per update.
+        history: The observations each belief has kept so far (default: none, every belief
+            fresh from the prior); the target of the tempering moves.
     """
 
     def __init__(
@@ -181,6 +187,7 @@ class BeliefBatch:
         recovery_fraction: float,
         tempering_ess: float,
         max_tempering_stages: int,
+        history: ObservationHistory | None = None,
     ) -> None:
         if particles.ndim != 3 or log_weights.shape != particles.shape[:2]:
             raise ValueError(
@@ -202,6 +209,11 @@ class BeliefBatch:
         self.max_tempering_stages = int(max_tempering_stages)
         self.particles = particles
         self.set_log_weights(log_weights)
+        if history is None:
+            history = ObservationHistory(particles.shape[0])
+        elif history.n_beliefs != particles.shape[0]:
+            raise ValueError(f"history has {history.n_beliefs} beliefs, need {particles.shape[0]}")
+        self.history = history
 
     # ------------------------------------------------------------------ state
     @property
@@ -238,6 +250,13 @@ class BeliefBatch:
             self.particles = self.particles.copy()
             self.particles[rows] = particles
         self.set_log_weights(log_weights, rows)
+
+    def restart_rows(
+        self, rows: NDArray[np.intp], particles: FloatArray, log_weights: FloatArray
+    ) -> None:
+        """Start ``rows`` afresh: new particles drawn from the prior, no observations yet."""
+        self.set_rows(rows, particles, log_weights)
+        self.history.restart(rows)
 
     def _all_rows(self, rows: NDArray[np.intp]) -> bool:
         return rows.size == self.n_beliefs and bool(np.all(rows == np.arange(rows.size)))
@@ -329,6 +348,10 @@ class BeliefBatch:
             g = k // (k_rows // z.shape[0])
             mask = received[k]
             self._update_row(k, sensor, z[g][mask], poses[g][mask], loglik[k], result)
+        self.history.append(sensor, z, poses, received)
+        dropped = np.flatnonzero((counts > 0) & (result.n_observations == 0))
+        if dropped.size:
+            self.history.drop_latest(dropped)
         return result
 
     def _tempering_on(self) -> bool:
@@ -371,6 +394,15 @@ class BeliefBatch:
             return
         result.n_observations[k] = 0  # still impossible: drop them, keep the prior belief
         result.n_stages[k] = 0
+
+    def _past_log_likelihood(
+        self, past: list[tuple[Any, FloatArray, FloatArray]], particles: FloatArray
+    ) -> FloatArray:
+        """``H``: ``(N,)`` log-likelihood of a belief's kept observations at ``particles``."""
+        total = np.zeros(particles.shape[0])
+        for sensor, z, poses in past:
+            total += self._row_log_likelihood(sensor, z, poses, particles)
+        return total
 
     @staticmethod
     def _row_log_likelihood(
@@ -427,18 +459,24 @@ class BeliefBatch:
         loglik: FloatArray,
         exponent: float,
     ) -> tuple[FloatArray, FloatArray]:
-        """``TEMPERING_MOVE_SWEEPS`` likelihood-guarded Metropolis sweeps of belief ``k``'s
-        resampled particles (proposal: the roughening jitter at a shrinking scale)."""
+        """``TEMPERING_MOVE_SWEEPS`` Metropolis sweeps of belief ``k``'s resampled particles
+        (proposal: the roughening jitter at a shrinking scale) with target the stage's exact
+        posterior ``p_0 * (likelihood of the kept past observations) * L^exponent``."""
         particles, loglik = particles.copy(), loglik.copy()
+        past = self.history.observations(k)
+        past_loglik = self._past_log_likelihood(past, particles)
         scale = TEMPERING_MOVE_SCALE
         for _ in range(TEMPERING_MOVE_SWEEPS):
             proposal = self.roughen(particles[None], [self.rngs[k]], move_scale=scale)[0]
             proposal_loglik = self._row_log_likelihood(sensor, z, poses, proposal)
+            proposal_past = self._past_log_likelihood(past, proposal)
             log_u = np.log(self.rngs[k].random(particles.shape[0]))
-            with np.errstate(invalid="ignore"):  # loglik is finite: no -inf - -inf
-                accept = log_u < exponent * (proposal_loglik - loglik)
+            with np.errstate(invalid="ignore"):  # -inf - -inf (both impossible): rejected
+                log_ratio = exponent * (proposal_loglik - loglik) + (proposal_past - past_loglik)
+                accept = log_u < log_ratio
             particles[accept] = proposal[accept]
             loglik[accept] = proposal_loglik[accept]
+            past_loglik[accept] = proposal_past[accept]
             scale *= TEMPERING_MOVE_SHRINK
         return particles, loglik
 

@@ -18,6 +18,7 @@ import gymnasium
 import numpy as np
 from numpy.typing import NDArray
 
+from infoseek.envs.belief import default_tempering_ess
 from infoseek.envs.sensors import make_sensor
 from infoseek.envs.sensors.base import Sensor
 from infoseek.envs.spaces import observation_layout, position_box, state_layout
@@ -140,7 +141,8 @@ class SearchConfig:
         resample_threshold: Belief resampling threshold on ``ESS / N`` in ``[0, 1]``.
         roughening: Belief roughening factor (>= 0; 0 disables).
         tempering_ess: Belief progressive-correction floor in ``[0, 1)`` (0 disables; see
-            :mod:`infoseek.envs.belief`).
+            :mod:`infoseek.envs.belief`); ``None``: 0.1 for a stationary target, 0 for a
+            moving one (:func:`~infoseek.envs.belief.default_tempering_ess`).
         filter_max_snr: Filter noise floor (module docstring): ``None`` evaluates the exact
             likelihood; a float ``c > 0`` makes every belief update (and the planners) use
             ``sensor.with_max_snr(c)`` (the sensor must offer it). The model the beliefs use is
@@ -186,7 +188,7 @@ class SearchConfig:
         separation_penalty: float = 1.0,
         resample_threshold: float = 1.0,
         roughening: float = 0.2,
-        tempering_ess: float = 0.1,
+        tempering_ess: float | None = None,
         filter_max_snr: float | None = None,
         entropy_bins: tuple[int, ...] | None = None,
         belief_grid: tuple[int, int] = (8, 8),
@@ -232,6 +234,8 @@ class SearchConfig:
             resample_threshold, "resample_threshold", low=0.0, high=1.0
         )
         self.roughening = _check_float(roughening, "roughening", low=0.0)
+        if tempering_ess is None:
+            tempering_ess = default_tempering_ess(self.target_motion)
         self.tempering_ess = _check_float(tempering_ess, "tempering_ess", low=0.0, high=1.0)
         if self.tempering_ess >= 1.0:
             raise ValueError(f"tempering_ess must be in [0, 1), got {tempering_ess!r}")

@@ -161,7 +161,9 @@ class SearchCore:
                 rngs.append(rng)
                 rows.append(b * a + i)
         index = np.array(rows, dtype=np.intp)
-        self.beliefs.set_rows(index, np.stack(particles), np.full((index.size, n), -math.log(n)))
+        self.beliefs.restart_rows(
+            index, np.stack(particles), np.full((index.size, n), -math.log(n))
+        )
         for row, rng in zip(rows, rngs, strict=True):
             self.beliefs.rngs[row] = rng
         self.cycles[envs] = 0

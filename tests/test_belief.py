@@ -15,7 +15,7 @@ from scipy import stats
 
 import infoseek.envs
 from infoseek.envs.belief import BeliefUpdate, BeliefView, ParticleBelief
-from infoseek.envs.sensors import BeaconSensor
+from infoseek.envs.sensors import BeaconSensor, BearingSensor
 from infoseek.envs.sensors.base import ObservationDomain, Sensor
 from infoseek.envs.targets import (
     TARGET_MOTION_REGISTRY,
@@ -624,6 +624,75 @@ def test_tempered_posterior_agrees_with_grid_posterior() -> None:
     # no noticeable bias: every run's mean within 0.15 posterior std, spread within 20 %
     assert np.all(np.abs(np.array(means) - mean) < 0.15 * sd), (means, mean, sd)
     np.testing.assert_allclose(np.mean(sds, axis=0), sd, rtol=0.2)
+
+
+def test_tempering_after_earlier_observations_targets_the_exact_posterior() -> None:
+    """Two 0.05 rad bearings from the west, then a 0.002 rad bearing from the south (tempered,
+    on a concentrated prior): particles vs a fine grid of the exact posterior. A move that
+    ignores the earlier bearings spreads the particles along the last one (std ~1.3 in y)."""
+    space = TargetSpace.planar()
+    truth = np.array([20.0, 20.0])
+    west, south = BearingSensor(sigma=0.05), BearingSensor(sigma=0.002)
+    poses_w, poses_s = np.array([[0.0, 20.0], [0.0, 22.0]]), np.array([[20.0, 0.0]])
+    noise = np.random.default_rng(1).standard_normal(3)
+    z_w = np.arctan2(truth[1] - poses_w[:, 1], truth[0] - poses_w[:, 0])[:, None]
+    z_w += 0.05 * noise[:2, None]
+    z_s = np.array([[np.pi / 2 + 0.002 * noise[2]]])
+    cells = np.linspace(0.0, 40.0, 1601)
+    grid = np.stack(np.meshgrid(cells, cells), axis=-1).reshape(-1, 2)
+    logp = west.log_likelihood(z_w, poses_w, grid).sum(0) + south.log_likelihood(
+        z_s, poses_s, grid
+    ).sum(0)
+    post = np.exp(logp - logp.max())
+    post /= post.sum()
+    mean = post @ grid
+    sd = np.sqrt(post @ (grid - mean) ** 2)
+
+    means, sds = [], []
+    for seed in range(5):
+        belief = ParticleBelief.from_prior(space, 2000, np.random.default_rng(seed))
+        belief.update(west, z_w, poses_w)
+        belief.resample_if_needed()
+        upd = belief.update(south, z_s, poses_s)
+        assert upd.n_stages > 1 and not upd.recovered
+        means.append(belief.weights @ belief.particles)
+        sds.append(np.sqrt(belief.weights @ (belief.particles - belief.mmse()) ** 2))
+    assert np.all(np.abs(np.array(means) - mean) < 0.25 * sd), (means, mean, sd)
+    np.testing.assert_allclose(np.mean(sds, axis=0), sd, rtol=0.1)
+
+
+def test_a_copy_keeps_the_observations_its_moves_target() -> None:
+    """A copy tempers exactly like the original (it carries the kept observations)."""
+    space = TargetSpace.planar()
+    belief = ParticleBelief.from_prior(space, 1000, np.random.default_rng(2))
+    belief.update(BearingSensor(sigma=0.05), np.array([[0.02]]), np.array([[0.0, 20.0]]))
+    belief.resample_if_needed()
+    twin = belief.copy()
+    sharp, z, pose = BearingSensor(sigma=0.002), np.array([[1.57]]), np.array([[20.0, 0.0]])
+    assert belief.update(sharp, z, pose).n_stages > 1
+    twin.update(sharp, z, pose)
+    np.testing.assert_array_equal(twin.particles, belief.particles)
+    fresh = ParticleBelief(twin.particles, space, np.random.default_rng(2))
+    assert fresh.copy().update(sharp, z, pose).n_stages >= 1  # no kept observations: fine
+
+
+def test_tempering_needs_a_stationary_target() -> None:
+    good = PLANAR.sample_uniform(10, np.random.default_rng(0))
+    walk = RandomWalkTarget()
+    with pytest.raises(ValueError, match="tempering_ess.*stationary"):
+        ParticleBelief(good, PLANAR, np.random.default_rng(0), motion=walk, tempering_ess=0.1)
+    sharp, z, pose = GaussianPositionSensor(0.05), np.array([[20.0, 20.0]]), np.zeros((1, 2))
+    stages = {}
+    for motion in (walk, None):  # default: tempering off for the moving target only
+        many = PLANAR.sample_uniform(2000, np.random.default_rng(1))
+        belief = ParticleBelief(many, PLANAR, np.random.default_rng(1), motion=motion)
+        stages[motion is None] = belief.update(sharp, z, pose).n_stages
+    assert stages == {False: 1, True: stages[True]} and stages[True] > 1
+    env = infoseek.envs.bearings_v0.parallel_env(target_motion="random_walk")
+    assert env.unwrapped.tempering_ess == 0.0
+    assert infoseek.envs.bearings_v0.parallel_env().unwrapped.tempering_ess == 0.1
+    with pytest.raises(ValueError, match="tempering_ess"):
+        infoseek.envs.bearings_v0.parallel_env(target_motion="random_walk", tempering_ess=0.1)
 
 
 def test_tempering_is_deterministic_under_a_seed() -> None:
