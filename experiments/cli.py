@@ -12,8 +12,9 @@ Subcommands:
   (:mod:`infoseek.experiments.bench`, :mod:`infoseek.experiments.store`), then a summary table.
 * ``infoseek plot DIR``: the paper's Fig. 1 from a results store
   (:mod:`infoseek.experiments.plot`).
-* ``infoseek reproduce fig1|fig2|beacon``: the trials and plots of the paper's figures with the
-  paper's settings, and the beacon Monte Carlo study (:mod:`infoseek.experiments.reproduce`).
+* ``infoseek reproduce fig1|fig2|beacon|ablation``: the trials and plots of the paper's figures
+  with the paper's settings, the beacon Monte Carlo study (:mod:`infoseek.experiments.reproduce`)
+  and the Claim A ablation (:mod:`infoseek.experiments.ablation`).
 * ``infoseek claims DIR``: paired statistical tests of the paper's Fig. 1 claims on stored
   trials (:mod:`infoseek.experiments.claims`).
 * ``infoseek verify DIR``: rerun stored trials from their seeds and report the records the
@@ -242,18 +243,40 @@ def run_plot_command(args: argparse.Namespace) -> int:
     return 0
 
 
+def _run_ablation(out: Path, backend: str, workers: int, args: argparse.Namespace) -> int:
+    """``infoseek reproduce ablation``: every setting's store, then the table and figure."""
+    from infoseek.experiments import ablation
+
+    if args.steps is not None or args.particles is not None:
+        raise ValueError("reproduce ablation: --steps/--particles are fixed by its settings")
+    trials = args.trials if args.trials is not None else ablation.DEFAULT_TRIALS
+    plans = list(ablation.ablation_plans(trials=trials, seed=args.seed))
+    for _, plan in plans:
+        plan.validate()  # every setting before any store is written
+    for name, plan in plans:
+        code = _run_and_summarise(plan, out / name / "store", backend, workers, args)
+        if code != 0:
+            return code
+    rows = ablation.ablation_rows(out)
+    print(ablation.format_table(rows))
+    for path in ablation.write_results(out, rows):
+        print(f"wrote {path}")
+    return 0
+
+
 def add_reproduce_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``infoseek reproduce``."""
     parser.add_argument(
         "figure",
-        choices=("fig1", "fig2", "beacon"),
-        help="which figure: the paper's fig1 or fig2, or the beacon Monte Carlo study",
+        choices=("fig1", "fig2", "beacon", "ablation"),
+        help="which figure: the paper's fig1 or fig2, the beacon Monte Carlo study or the "
+        "Claim A ablation",
     )
     parser.add_argument(
         "--trials",
         type=int,
         default=None,
-        help="trials per curve (fig1: default 1000; beacon: default 500)",
+        help="trials per curve (fig1: default 1000; beacon: default 500; ablation: 100)",
     )
     parser.add_argument(
         "--steps", type=int, default=None, help="steps per trial (default: the env's episode)"
@@ -269,7 +292,7 @@ def add_reproduce_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_reproduce_command(args: argparse.Namespace) -> int:
-    """``infoseek reproduce fig1|fig2|beacon``."""
+    """``infoseek reproduce fig1|fig2|beacon|ablation``."""
     from infoseek.experiments import reproduce
 
     if args.trials is not None and args.trials < 1:
@@ -294,6 +317,8 @@ def run_reproduce_command(args: argparse.Namespace) -> int:
             print(f"wrote {path}")
         return 0
     backend, workers = _execution(args)
+    if args.figure == "ablation":
+        return _run_ablation(out, backend, workers, args)
     make_plan = reproduce.beacon_plan if args.figure == "beacon" else reproduce.fig1_plan
     trials = args.trials if args.trials is not None else (500 if args.figure == "beacon" else 1000)
     plan = make_plan(trials=trials, steps=args.steps, particles=args.particles, seed=args.seed)

@@ -1,0 +1,274 @@
+"""``infoseek reproduce ablation``: how the pairwise-node gain over single-node (Claim A) depends on
+the settings the paper does not state.
+
+Around ``bearings_v0``'s defaults one setting is varied at a time: the bearing noise ``sigma``
+(0.05, 0.1, 0.2, 0.3 rad), the airplane speed (1, 2 units/s, turn rate 0.5 rad/s kept), the start
+spacing (1.5 = tight, 2 = default, 6 = spread), the particles per belief (500, 2000, 8000) and
+the fleet size (2, 4, 10). Every setting is a resumable benchmark store ``OUT/<name>/store`` of
+paired single/pairwise trials (trial ``k`` of every store and group faces the same target:
+the environment seed depends only on the root seed and ``k``), so the settings are paired with
+each other as well.
+
+Two responses per trial, both of agent 0's belief as in Fig. 1:
+
+* the **mean posterior mass** within the localisation radius over steps ``0..T`` (a low-variance
+  summary of the whole Fig. 1 curve, ``T`` the episode length);
+* the **time to localise** (first step with mass >= 0.9, censored at ``T``).
+
+For each setting and fleet size the table gives single's mean, the mean paired difference
+pairwise - single with its standard error, the difference relative to single's mean and a
+one-sided Wilcoxon signed-rank p-value (pairwise better), and the **gap curve**: the mean paired
+mass difference at every step, which shows when in the search the gain is made.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from infoseek.experiments.bench import BenchPlan, default_steps, time_to_localise
+from infoseek.experiments.claims import wilcoxon_faster
+from infoseek.experiments.store import read_manifest, read_records
+
+ABLATION_ENV = "bearings_v0"
+DEFAULT_TRIALS = 100
+GAP_STEPS = (2, 5, 10, 20, 30)
+"""Steps at which the table reports the gap curve."""
+
+
+@dataclass(frozen=True)
+class AblationSetting:
+    """One varied setting.
+
+    Attributes:
+        name: Directory of its store under the output directory.
+        factor: The setting varied.
+        value: Its value, as printed.
+        env_kwargs: ``bearings_v0`` keyword arguments that realise it.
+        fleets: Fleet sizes with a single/pairwise pair of groups.
+    """
+
+    name: str
+    factor: str
+    value: str
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+    fleets: tuple[int, ...] = (4,)
+
+
+SETTINGS: tuple[AblationSetting, ...] = (
+    AblationSetting("default", "defaults", "sigma 0.1, speed 1, spacing 2, N 2000", {}, (2, 4, 10)),
+    AblationSetting("sigma_0.05", "sigma (rad)", "0.05", {"sensor_kwargs": {"sigma": 0.05}}),
+    AblationSetting("sigma_0.2", "sigma (rad)", "0.2", {"sensor_kwargs": {"sigma": 0.2}}),
+    AblationSetting("sigma_0.3", "sigma (rad)", "0.3", {"sensor_kwargs": {"sigma": 0.3}}),
+    AblationSetting(
+        "speed_2", "speed", "2", {"vehicle_kwargs": {"speed": 2.0, "max_turn_rate": 0.5}}
+    ),
+    AblationSetting("spacing_1.5", "start spacing", "1.5 (tight)", {"start_spacing": 1.5}),
+    AblationSetting("spacing_6", "start spacing", "6 (spread)", {"start_spacing": 6.0}),
+    AblationSetting("particles_500", "particles", "500", {"n_particles": 500}),
+    AblationSetting("particles_8000", "particles", "8000", {"n_particles": 8000}),
+)
+
+
+def ablation_plans(trials: int = DEFAULT_TRIALS, seed: int = 0) -> Iterator[tuple[str, BenchPlan]]:
+    """``(store name, plan)`` of every setting, in :data:`SETTINGS` order."""
+    for setting in SETTINGS:
+        groups = [(planner, n) for n in setting.fleets for planner in ("single", "pairwise")]
+        yield (
+            setting.name,
+            BenchPlan(
+                env=ABLATION_ENV,
+                env_kwargs=dict(setting.env_kwargs),
+                steps=default_steps(ABLATION_ENV, setting.env_kwargs),
+                seed=seed,
+                groups=groups,
+                trials=trials,
+            ),
+        )
+
+
+@dataclass(frozen=True)
+class GapRow:
+    """Pairwise - single at one setting and fleet size (paired by trial).
+
+    Attributes:
+        setting, factor, value: The :class:`AblationSetting`.
+        n_agents: Fleet size.
+        trials: Paired trials.
+        mass_single: Single's mean of the per-trial mean posterior mass.
+        mass_gap, mass_gap_se, mass_p: Mean paired difference, its standard error, one-sided
+            Wilcoxon p-value (pairwise higher).
+        ttl_single: Single's mean time to localise (censored).
+        ttl_gap, ttl_gap_se, ttl_p: Mean paired difference single - pairwise (positive:
+            pairwise faster), its standard error, one-sided Wilcoxon p-value.
+        gap_curve, gap_curve_se: ``(T + 1,)`` mean paired mass difference at each step and its
+            standard error.
+    """
+
+    setting: str
+    factor: str
+    value: str
+    n_agents: int
+    trials: int
+    mass_single: float
+    mass_gap: float
+    mass_gap_se: float
+    mass_p: float
+    ttl_single: float
+    ttl_gap: float
+    ttl_gap_se: float
+    ttl_p: float
+    gap_curve: list[float]
+    gap_curve_se: list[float]
+
+    @property
+    def mass_gap_percent(self) -> float:
+        """``mass_gap`` relative to ``mass_single``, in percent."""
+        return 100.0 * self.mass_gap / self.mass_single
+
+
+def _series_by_trial(
+    records: Sequence[Mapping[str, Any]], planner: str, n_agents: int
+) -> dict[int, np.ndarray]:
+    return {
+        int(r["trial"]): np.array([np.nan if v is None else v for v in r["mass_agent0"]], float)
+        for r in records
+        if r["planner"] == planner and int(r["n_agents"]) == n_agents
+    }
+
+
+def gap_row(
+    setting: AblationSetting, records: Sequence[Mapping[str, Any]], steps: int, n_agents: int
+) -> GapRow:
+    """The :class:`GapRow` of one setting's store and fleet size (trials both groups hold)."""
+    single = _series_by_trial(records, "single", n_agents)
+    pairwise = _series_by_trial(records, "pairwise", n_agents)
+    trials = sorted(set(single) & set(pairwise))
+    if len(trials) < 2:
+        raise ValueError(f"{setting.name}: fewer than 2 paired trials at n_v = {n_agents}")
+    length = steps + 1
+    s = np.array([_padded(single[k], length) for k in trials])
+    p = np.array([_padded(pairwise[k], length) for k in trials])
+    mass_s, mass_p = s.mean(axis=1), p.mean(axis=1)
+    gap, gap_se, gap_p = wilcoxon_faster(mass_p, mass_s)  # "slower" = the larger mass here
+    ttl_s = np.array([_censored_ttl(row, steps) for row in s])
+    ttl_p = np.array([_censored_ttl(row, steps) for row in p])
+    ttl_gap, ttl_se, ttl_pvalue = wilcoxon_faster(ttl_s, ttl_p)
+    difference = p - s
+    return GapRow(
+        setting=setting.name,
+        factor=setting.factor,
+        value=setting.value,
+        n_agents=n_agents,
+        trials=len(trials),
+        mass_single=float(mass_s.mean()),
+        mass_gap=gap,
+        mass_gap_se=gap_se,
+        mass_p=gap_p,
+        ttl_single=float(ttl_s.mean()),
+        ttl_gap=ttl_gap,
+        ttl_gap_se=ttl_se,
+        ttl_p=ttl_pvalue,
+        gap_curve=difference.mean(axis=0).tolist(),
+        gap_curve_se=(difference.std(axis=0, ddof=1) / math.sqrt(len(trials))).tolist(),
+    )
+
+
+def _padded(series: np.ndarray, length: int) -> np.ndarray:
+    """A trial's mass series padded with its last value (an episode that ended early)."""
+    if series.size >= length:
+        return series[:length]
+    return np.concatenate([series, np.full(length - series.size, series[-1])])
+
+
+def _censored_ttl(series: np.ndarray, steps: int) -> float:
+    ttl = time_to_localise(series.tolist())
+    return float(steps if ttl is None else ttl)
+
+
+def ablation_rows(out: str | Path) -> list[GapRow]:
+    """Every setting's rows from the stores under ``out`` (settings without a store skipped)."""
+    rows = []
+    for setting in SETTINGS:
+        store = Path(out) / setting.name / "store"
+        if not (store / "manifest.json").exists():
+            continue
+        steps = int(read_manifest(store)["config"]["steps"])
+        records = read_records(store)
+        for n_agents in setting.fleets:
+            rows.append(gap_row(setting, records, steps, n_agents))
+    return rows
+
+
+def format_table(rows: Sequence[GapRow]) -> str:
+    """Markdown table of the rows (mass gap in percent of single's mass, ttl gap in steps)."""
+    head = (
+        "| setting | value | n_v | trials | mass single | mass gap (pw - s) | rel. | p | "
+        "ttl single | ttl gain (s - pw) | p | gap at steps "
+        + ", ".join(str(t) for t in GAP_STEPS)
+        + " |\n|---|---|---|---|---|---|---|---|---|---|---|---|"
+    )
+    lines = [head]
+    for r in rows:
+        curve = ", ".join(f"{r.gap_curve[t]:+.3f}" for t in GAP_STEPS if t < len(r.gap_curve))
+        lines.append(
+            f"| {r.factor} | {r.value} | {r.n_agents} | {r.trials} | {r.mass_single:.3f} | "
+            f"{r.mass_gap:+.4f} +- {r.mass_gap_se:.4f} | {r.mass_gap_percent:+.1f} % | "
+            f"{r.mass_p:.2g} | {r.ttl_single:.2f} | {r.ttl_gap:+.2f} +- {r.ttl_gap_se:.2f} | "
+            f"{r.ttl_p:.2g} | {curve} |"
+        )
+    return "\n".join(lines)
+
+
+def write_results(out: str | Path, rows: Sequence[GapRow]) -> list[Path]:
+    """``OUT/ablation.md``, ``OUT/ablation.json`` and the figure ``OUT/ablation.png/.svg``."""
+    out = Path(out)
+    table = out / "ablation.md"
+    table.write_text(format_table(rows) + "\n")
+    data = out / "ablation.json"
+    data.write_text(json.dumps([asdict(r) for r in rows], indent=1) + "\n")
+    return [table, data, *plot_ablation(rows, out / "ablation")]
+
+
+def plot_ablation(rows: Sequence[GapRow], stem: Path) -> list[Path]:
+    """(a) the mean-mass gap of every row with its 95 % interval; (b) the gap curves of the
+    ``n_v = 4`` rows over the episode."""
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(12, 5), layout="constrained")
+    bars, curves = figure.subplots(1, 2, width_ratios=(1, 1.3))
+    labels = [f"{r.factor} = {r.value}, n_v = {r.n_agents}" for r in rows]
+    y = np.arange(len(rows))[::-1]
+    gaps = np.array([r.mass_gap_percent for r in rows])
+    half = np.array([196.0 * r.mass_gap_se / r.mass_single for r in rows])
+    bars.errorbar(gaps, y, xerr=half, fmt="o", capsize=3)
+    bars.axvline(0.0, color="0.5", linewidth=0.8)
+    bars.set_yticks(y, labels, fontsize=8)
+    bars.set_xlabel("pairwise - single, mean posterior mass over the episode (% of single)")
+    bars.set_title("(a) Claim A gain by setting (95 % interval)")
+    for r in rows:
+        if r.n_agents != 4:
+            continue
+        curve = np.array(r.gap_curve)
+        (line,) = curves.plot(np.arange(curve.size), curve, label=f"{r.factor} = {r.value}")
+        se = np.array(r.gap_curve_se)
+        curves.fill_between(
+            np.arange(curve.size), curve - se, curve + se, alpha=0.15, color=line.get_color()
+        )
+    curves.axhline(0.0, color="0.5", linewidth=0.8)
+    curves.set_xlabel("step")
+    curves.set_ylabel("mean paired mass difference, pairwise - single (+- 1 s.e.)")
+    curves.set_title("(b) when the gain is made (n_v = 4)")
+    curves.legend(fontsize=7)
+    paths = []
+    for suffix in (".png", ".svg"):
+        path = stem.with_suffix(suffix)
+        figure.savefig(path, dpi=110)
+        paths.append(path)
+    return paths
