@@ -76,16 +76,28 @@ SETTINGS: tuple[AblationSetting, ...] = (
 )
 
 
-def ablation_plans(trials: int = DEFAULT_TRIALS, seed: int = 0) -> Iterator[tuple[str, BenchPlan]]:
-    """``(store name, plan)`` of every setting, in :data:`SETTINGS` order."""
-    for setting in SETTINGS:
+def ablation_plans(
+    trials: int = DEFAULT_TRIALS,
+    seed: int = 0,
+    steps: int | None = None,
+    settings: Sequence[AblationSetting] = SETTINGS,
+) -> Iterator[tuple[str, BenchPlan]]:
+    """``(store name, plan)`` of every setting, in order.
+
+    Args:
+        trials: Paired trials per group.
+        seed: Root seed.
+        steps: Episode length (default: the environment's, 60).
+        settings: The settings (default :data:`SETTINGS`).
+    """
+    for setting in settings:
         groups = [(planner, n) for n in setting.fleets for planner in ("single", "pairwise")]
         yield (
             setting.name,
             BenchPlan(
                 env=ABLATION_ENV,
                 env_kwargs=dict(setting.env_kwargs),
-                steps=default_steps(ABLATION_ENV, setting.env_kwargs),
+                steps=default_steps(ABLATION_ENV, setting.env_kwargs) if steps is None else steps,
                 seed=seed,
                 groups=groups,
                 trials=trials,
@@ -192,10 +204,10 @@ def _censored_ttl(series: np.ndarray, steps: int) -> float:
     return float(steps if ttl is None else ttl)
 
 
-def ablation_rows(out: str | Path) -> list[GapRow]:
+def ablation_rows(out: str | Path, settings: Sequence[AblationSetting] = SETTINGS) -> list[GapRow]:
     """Every setting's rows from the stores under ``out`` (settings without a store skipped)."""
     rows = []
-    for setting in SETTINGS:
+    for setting in settings:
         store = Path(out) / setting.name / "store"
         if not (store / "manifest.json").exists():
             continue
@@ -265,7 +277,8 @@ def plot_ablation(rows: Sequence[GapRow], stem: Path) -> list[Path]:
     curves.set_xlabel("step")
     curves.set_ylabel("mean paired mass difference, pairwise - single (+- 1 s.e.)")
     curves.set_title("(b) when the gain is made (n_v = 4)")
-    curves.legend(fontsize=7)
+    if any(r.n_agents == 4 for r in rows):
+        curves.legend(fontsize=7)
     paths = []
     for suffix in (".png", ".svg"):
         path = stem.with_suffix(suffix)
