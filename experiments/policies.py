@@ -11,6 +11,7 @@ PLANNER_CLASSES: dict[str, str] = {
     "pairwise": "PairwiseNodePlanner",
     "single": "SingleNodePlanner",
     "joint": "JointPlanner",
+    "horizon": "RecedingHorizonPlanner",
     "random": "RandomPolicy",
     "lawnmower": "LawnmowerPolicy",
 }

@@ -3,6 +3,8 @@
 * :class:`SingleNodePlanner` - decentralised, single-node MI approximation (eq. 20);
 * :class:`PairwiseNodePlanner` - decentralised, pairwise-node MI approximation (eq. 22, 30);
 * :class:`JointPlanner` - centralised exact joint MI (eq. 10), small teams only;
+* :class:`RecedingHorizonPlanner` - decentralised, non-myopic: the team's information over
+  ``H`` future steps (not in the paper);
 * :class:`RandomPolicy`, :class:`LawnmowerPolicy` - baselines.
 
 All share ``Planner.from_env(env, **options)`` and ``planner.act(observations, infos)``; the
@@ -23,6 +25,7 @@ from infoseek.planners.lawnmower import LawnmowerConfig, LawnmowerPolicy
 from infoseek.planners.model import EnvModel, Policy
 from infoseek.planners.pairwise_node import PairwiseNodePlanner
 from infoseek.planners.random_policy import RandomPolicy, RandomPolicyConfig
+from infoseek.planners.receding_horizon import RecedingHorizonConfig, RecedingHorizonPlanner
 from infoseek.planners.single_node import SingleNodePlanner
 
 __all__ = [
@@ -40,6 +43,8 @@ __all__ = [
     "Policy",
     "RandomPolicy",
     "RandomPolicyConfig",
+    "RecedingHorizonConfig",
+    "RecedingHorizonPlanner",
     "SingleNodePlanner",
     "coordinate",
     "separation_penalty",
