@@ -113,6 +113,7 @@ def fig1_panels(groups: Sequence[tuple[str, int]]) -> list[tuple[str, list[tuple
 _PANEL_A_STYLES = {
     "single": ("--", "C0", "single-node"),
     "pairwise": ("-", "C0", "pairwise-node"),
+    "horizon": ("-", "C3", "receding-horizon"),
     "random": (":", "C7", "random"),
     "lawnmower": ("-.", "C7", "lawnmower"),
 }
@@ -125,7 +126,10 @@ _PANEL_TITLES = {
 
 
 def plot_fig1(
-    records: Sequence[Mapping[str, Any]], out_stem: str | os.PathLike[str], title: str = ""
+    records: Sequence[Mapping[str, Any]],
+    out_stem: str | os.PathLike[str],
+    title: str = "",
+    bounds: Mapping[int, np.ndarray] | None = None,
 ) -> list[Path]:
     """Draw Fig. 1 from ``records`` into ``out_stem.png`` and ``out_stem.svg``.
 
@@ -133,6 +137,8 @@ def plot_fig1(
         records: Trial records of one store.
         out_stem: Output path without suffix.
         title: Figure title (e.g. the environment and episode length).
+        bounds: Fleet size -> ``(K, T + 1)`` clairvoyant mass bounds
+            (:mod:`infoseek.experiments.bound`), drawn as their mean (thin dotted lines).
 
     Returns:
         The written paths.
@@ -163,6 +169,16 @@ def plot_fig1(
                 label = f"{planner}, $n_v = {n_agents}$ {count}"
                 style, color = "-", f"C{position % 10}"
             _draw_group(axes, matrix, label, linestyle=style, color=color, offset=offset)
+        for position, n_agents in enumerate(sorted({n for _, n in keys})):
+            if bounds is not None and n_agents in bounds and panel in ("a", "b"):
+                color = "k" if panel == "a" else f"C{position % 10}"
+                axes.plot(
+                    bounds[n_agents].mean(axis=0),
+                    linestyle=":",
+                    lw=1.0,
+                    color=color,
+                    label=f"clairvoyant bound, $n_v = {n_agents}$",
+                )
         _style(axes, _PANEL_TITLES[panel], radius)
     if title:
         figure.suptitle(title)
@@ -188,4 +204,9 @@ def plot_fig1_from_store(
         f"{config.get('steps', '?')} steps"
     )
     stem = Path(out_stem) if out_stem is not None else Path(directory) / "fig1"
-    return plot_fig1(records, stem, title=title)
+    bounds = None
+    if config.get("env") == "bearings_v0":
+        from infoseek.experiments.bound import store_mass_bounds
+
+        bounds = store_mass_bounds(records, config.get("env_kwargs", {}), int(config["steps"]))
+    return plot_fig1(records, stem, title=title, bounds=bounds)

@@ -1,0 +1,72 @@
+"""The clairvoyant mass bound: its inequalities against brute force, and the stored curves."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.special import erf
+
+from infoseek.experiments.bound import mass_bound, store_mass_bounds, time_to_localise_bound
+from infoseek.experiments.plot import mass_curves
+from infoseek.experiments.store import read_records
+
+FIG1_STORE = Path(__file__).resolve().parents[1] / "experiments" / "results" / "fig1" / "store"
+
+
+def test_per_step_term_bounds_every_point_of_the_reachable_disk() -> None:
+    """Brute force: e^T (n n^T / (sigma^2 d^2)) e at 20,000 points of the disk never exceeds
+    the bound's per-step term (one vehicle at the centre: the bound's first increment)."""
+    rng = np.random.default_rng(0)
+    sigma = 0.1
+    for _ in range(20):
+        target = rng.uniform(10, 40, 2)
+        centre = rng.uniform(0, 10, 2)
+        d0 = np.linalg.norm(target - centre)
+        reach = rng.uniform(0.5, 0.9) * d0
+        e = (centre - target) / d0
+        angle = rng.uniform(0, 2 * np.pi, 20_000)
+        rad = reach * np.sqrt(rng.uniform(0, 1, 20_000))
+        points = centre + np.stack([rad * np.cos(angle), rad * np.sin(angle)], axis=1)
+        los = points - target
+        d = np.linalg.norm(los, axis=1)
+        normal = np.stack([-los[:, 1], los[:, 0]], axis=1) / d[:, None]
+        brute = (normal @ e) ** 2 / (sigma**2 * d**2)
+        bound = mass_bound(target[None], centre[None], reach, 1.0, sigma, 1.0, 1, 1600.0)
+        term = min(reach, d0 - reach) ** 2 / (sigma**2 * (d0 - reach) ** 4)
+        assert brute.max() <= term * (1 + 1e-12)
+        assert bound[0, 1] == pytest.approx(max(erf(np.sqrt(term / 2.0)), np.pi / 1600.0))
+
+
+def test_gaussian_disk_mass_never_exceeds_the_directional_bound() -> None:
+    """Monte Carlo: a Gaussian with covariance J^-1 puts at most erf(r sqrt(e^T J e / 2)) in
+    any disk of radius r, for every unit e (Cauchy-Schwarz + Anderson)."""
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        a = rng.normal(size=(2, 2))
+        information = a @ a.T * rng.uniform(0.5, 20) + 0.01 * np.eye(2)
+        samples = rng.multivariate_normal(np.zeros(2), np.linalg.inv(information), 40_000)
+        centre = rng.normal(scale=0.3, size=2)
+        mass = np.mean(np.linalg.norm(samples - centre, axis=1) <= 1.0)
+        e = rng.normal(size=2)
+        e /= np.linalg.norm(e)
+        assert mass <= erf(np.sqrt(e @ information @ e / 2.0)) + 0.01
+
+
+def test_time_to_localise_bound_is_the_first_crossing() -> None:
+    bounds = np.array([[0.0, 0.5, 0.95, 0.99], [0.0, 0.1, 0.2, 0.3]])
+    np.testing.assert_array_equal(time_to_localise_bound(bounds), [2.0, 4.0])
+
+
+def test_no_stored_fig1_curve_crosses_the_bound() -> None:
+    records = read_records(FIG1_STORE)
+    bounds = store_mass_bounds(records, {}, 60)
+    curves = mass_curves(records)
+    assert {n for _, n in curves} == set(bounds)
+    for (planner, n_agents), matrix in curves.items():
+        mean_curve = np.nanmean(matrix, axis=0)
+        limit = bounds[n_agents].mean(axis=0)
+        # step 0 is the uniform prior: its sampled disk mass scatters around pi / 1600
+        assert mean_curve[0] == pytest.approx(limit[0], abs=2e-4)
+        assert np.all(mean_curve[1:] <= limit[1:]), (planner, n_agents)
