@@ -12,6 +12,9 @@ engine has one, and the machine (CPU model, logical cores, Python, NumPy and the
   successive steps of one seeded episode after its first step;
 * ``plan_single_beacon_4``, ``plan_pairwise_beacon_4``: the same for 4 quadrotors on
   ``beacon_v0`` (defaults: 2000 particles, the filters' noise floor, the ``fourier`` estimator);
+* ``plan_pairwise_4``, ``plan_horizon_4``: ``PairwiseNodePlanner`` and
+  ``RecedingHorizonPlanner`` (its defaults: ``H = 5``, 45 sequences, 128 planning particles)
+  for 4 airplanes on ``bearings_v0``, the Fig. 1 setting (target: 1 s per decision);
 * ``*_first_step``: the first ``act`` of an episode (uniform prior), one per seeded episode;
 * ``decision_pairwise_4_uniform``: one coordinated decision of 4 bearing sensors at the uniform
   prior (N = 2000, 8 candidate positions per sensor on a circle of radius 1, eq. 22 with the
@@ -54,6 +57,9 @@ TARGETS: dict[str, float | None] = {
     "plan_single_beacon_4_first_step": None,
     "plan_pairwise_beacon_4": 100.0,
     "plan_pairwise_beacon_4_first_step": None,
+    "plan_pairwise_4": None,
+    "plan_horizon_4": 1000.0,
+    "plan_horizon_4_first_step": 1000.0,
     "decision_pairwise_4_uniform": 10.0,
     "env_step_bearings_4": None,
     "env_step_beacon_4": None,
@@ -68,6 +74,8 @@ _PLANNING = {
     "plan_pairwise_10": ("pairwise", "bearings_v0", 10),
     "plan_single_beacon_4": ("single", "beacon_v0", 4),
     "plan_pairwise_beacon_4": ("pairwise", "beacon_v0", 4),
+    "plan_pairwise_4": ("pairwise", "bearings_v0", 4),
+    "plan_horizon_4": ("horizon", "bearings_v0", 4),
 }
 
 
