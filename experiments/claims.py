@@ -45,6 +45,13 @@ def add_claims_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("directory", type=Path, help="results directory of a bench/reproduce run")
     parser.add_argument("--alpha", type=float, default=0.05, help="significance level (0.05)")
     parser.add_argument(
+        "--baseline",
+        type=Path,
+        default=None,
+        help="another store with the same seeds (e.g. before a code change): paired "
+        "differences of every group both hold",
+    )
+    parser.add_argument(
         "--trials",
         type=int,
         default=None,
@@ -159,6 +166,33 @@ def mass_bands(records: Sequence[Mapping[str, Any]], groups: Sequence[tuple[str,
     return "\n".join(lines)
 
 
+def baseline_lines(
+    records: Sequence[Mapping[str, Any]],
+    baseline: Sequence[Mapping[str, Any]],
+    steps: int,
+) -> list[str]:
+    """Per group both stores hold: mean ttl here and in ``baseline`` over the trials both hold,
+    the paired difference with its standard error and a two-sided Wilcoxon p-value."""
+    lines = []
+    ours = {(r["planner"], int(r["n_agents"])) for r in records}
+    theirs = {(r["planner"], int(r["n_agents"])) for r in baseline}
+    for planner, n_agents in sorted(ours & theirs, key=lambda g: (g[1], g[0])):
+        new = times_to_localise(records, planner, n_agents, steps)
+        old = times_to_localise(baseline, planner, n_agents, steps)
+        trials = sorted(set(new) & set(old))
+        a = np.array([new[k] for k in trials])
+        b = np.array([old[k] for k in trials])
+        difference = a - b
+        stderr = float(np.std(difference, ddof=1) / np.sqrt(difference.size))
+        p = 1.0 if not np.any(difference) else float(stats.wilcoxon(a, b).pvalue)
+        lines.append(
+            f"  {planner}/{n_agents}: {len(trials)} paired trials, mean ttl {a.mean():.2f} "
+            f"(baseline {b.mean():.2f}), difference {difference.mean():+.2f} +- {stderr:.2f} "
+            f"steps, two-sided Wilcoxon p {format_p_value(p)}"
+        )
+    return lines
+
+
 def run_claims(args: argparse.Namespace) -> int:
     """Print the summary table and the tests of claims A and B; returns the exit code."""
     if not 0.0 < args.alpha < 1.0:
@@ -174,6 +208,17 @@ def run_claims(args: argparse.Namespace) -> int:
         raise ValueError(f"{args.directory}: the store holds no trials")
     steps = int(manifest["config"]["steps"])
     _check_pairing(records)
+    baseline = None
+    if getattr(args, "baseline", None) is not None:
+        check_results_directory(args.baseline)
+        other = read_manifest(args.baseline)["config"]
+        mine = manifest["config"]
+        if (other["env"], other["seed"], other["steps"]) != (mine["env"], mine["seed"], steps):
+            raise ValueError(
+                f"--baseline {args.baseline}: env/seed/steps {other['env']}/{other['seed']}/"
+                f"{other['steps']} differ from {mine['env']}/{mine['seed']}/{steps}: not paired"
+            )
+        baseline = read_records(args.baseline)
     print(format_summary(summarise(records, steps), steps))
     print()
     groups = {(r["planner"], int(r["n_agents"])) for r in records}
@@ -224,4 +269,7 @@ def run_claims(args: argparse.Namespace) -> int:
         env_kwargs = manifest["config"].get("env_kwargs", {})
         print("Clairvoyant bound (infoseek.experiments.bound; Gaussian-posterior assumption):")
         print(describe(store_mass_bounds(records, env_kwargs, steps)))
+    if baseline is not None:
+        print(f"Against the baseline {args.baseline} (same seeds):")
+        print("\n".join(baseline_lines(records, baseline, steps)))
     return 0

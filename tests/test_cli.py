@@ -271,6 +271,23 @@ def test_claims_detects_a_paired_improvement_and_its_absence(tmp_path: Path, cap
     assert "--trials must be a positive" in capsys.readouterr().err
 
 
+def test_claims_against_a_baseline_store_are_paired_differences(tmp_path: Path, capsys) -> None:
+    rng = np.random.default_rng(2)
+    old = rng.integers(10, 30, size=25)
+    new = old + rng.integers(-2, 1, size=25)  # never slower, often faster
+    _synthetic_store(tmp_path / "old", {("pairwise", 4): old.tolist()}, steps=60)
+    _synthetic_store(tmp_path / "new", {("pairwise", 4): new.tolist()}, steps=60)
+    assert main(["claims", str(tmp_path / "new"), "--baseline", str(tmp_path / "old")]) == 0
+    line = capsys.readouterr().out.split("Against the baseline")[1].splitlines()[1]
+    difference = new - old
+    stderr = difference.std(ddof=1) / np.sqrt(25)
+    assert f"mean ttl {new.mean():.2f} (baseline {old.mean():.2f})" in line
+    assert f"difference {difference.mean():+.2f} +- {stderr:.2f}" in line
+    _synthetic_store(tmp_path / "short", {("pairwise", 4): old.tolist()}, steps=40)
+    assert main(["claims", str(tmp_path / "new"), "--baseline", str(tmp_path / "short")]) == 2
+    assert "not paired" in capsys.readouterr().err
+
+
 def test_claims_rejects_unpaired_stores(tmp_path: Path, capsys) -> None:
     _synthetic_store(tmp_path / "s", {("single", 4): [5, 6], ("pairwise", 4): [4, 5]}, steps=20)
     trials = (tmp_path / "s" / "trials.jsonl").read_text().splitlines()
