@@ -193,6 +193,38 @@ def baseline_lines(
     return lines
 
 
+def distance_lines(records: Sequence[Mapping[str, Any]], steps: int) -> list[str]:
+    """Per group: least-squares fit ``ttl = a d_0 + b`` of the time to localise against the
+    target's initial distance ``d_0`` from the centre (5, 5) of the default start grid, with
+    the correlation and the residual standard deviation."""
+    lines = []
+    groups = sorted({(r["planner"], int(r["n_agents"])) for r in records}, key=lambda g: g[::-1])
+    for planner, n_agents in groups:
+        times = times_to_localise(records, planner, n_agents, steps)
+        centre = np.asarray(START_CENTRE)
+        distance = {
+            int(r["trial"]): float(np.linalg.norm(np.asarray(r["truth"][:2]) - centre))
+            for r in records
+            if r["planner"] == planner and int(r["n_agents"]) == n_agents
+        }
+        trials = sorted(times)
+        d = np.array([distance[k] for k in trials])
+        y = np.array([times[k] for k in trials])
+        if d.size < 3 or np.ptp(d) == 0.0:
+            continue
+        slope, intercept = np.polyfit(d, y, 1)
+        residual = y - (slope * d + intercept)
+        lines.append(
+            f"  {planner}/{n_agents}: ttl = {slope:.2f} d0 {intercept:+.2f} (correlation "
+            f"{np.corrcoef(d, y)[0, 1]:.2f}, residual sd {residual.std(ddof=2):.2f} steps)"
+        )
+    return lines
+
+
+#: Centre of the default start grid of both environments (``start_center``).
+START_CENTRE = (5.0, 5.0)
+
+
 def run_claims(args: argparse.Namespace) -> int:
     """Print the summary table and the tests of claims A and B; returns the exit code."""
     if not 0.0 < args.alpha < 1.0:
@@ -269,6 +301,10 @@ def run_claims(args: argparse.Namespace) -> int:
         env_kwargs = manifest["config"].get("env_kwargs", {})
         print("Clairvoyant bound (infoseek.experiments.bound; Gaussian-posterior assumption):")
         print(describe(store_mass_bounds(records, env_kwargs, steps)))
+    moved = {"start_center", "start_positions"} & set(manifest["config"].get("env_kwargs", {}))
+    if all("truth" in r for r in records) and not moved:
+        print("Time to localise against the target's initial distance d0 from the start centre:")
+        print("\n".join(distance_lines(records, steps)))
     if baseline is not None:
         print(f"Against the baseline {args.baseline} (same seeds):")
         print("\n".join(baseline_lines(records, baseline, steps)))

@@ -288,6 +288,32 @@ def test_claims_against_a_baseline_store_are_paired_differences(tmp_path: Path, 
     assert "not paired" in capsys.readouterr().err
 
 
+def test_distance_fit_recovers_a_linear_time_to_localise() -> None:
+    from infoseek.experiments.claims import distance_lines
+
+    rng = np.random.default_rng(4)
+    records = []
+    for trial in range(30):
+        truth = rng.uniform(10, 40, 2)
+        ttl = int(round(0.5 * np.hypot(*(truth - 5.0)))) + 3
+        mass = [0.5] * ttl + [0.95] * (61 - ttl)
+        records.append(
+            {
+                "planner": "pairwise",
+                "n_agents": 4,
+                "trial": trial,
+                "env_seed": trial,
+                "truth": truth.tolist(),
+                "mass_agent0": mass,
+            }
+        )
+    (line,) = distance_lines(records, 60)
+    d = np.array([np.hypot(*(np.array(r["truth"]) - 5.0)) for r in records])
+    y = np.array([r["mass_agent0"].index(0.95) for r in records])
+    slope, intercept = np.polyfit(d, y, 1)
+    assert f"ttl = {slope:.2f} d0 {intercept:+.2f}" in line and abs(slope - 0.5) < 0.05
+
+
 def test_claims_rejects_unpaired_stores(tmp_path: Path, capsys) -> None:
     _synthetic_store(tmp_path / "s", {("single", 4): [5, 6], ("pairwise", 4): [4, 5]}, steps=20)
     trials = (tmp_path / "s" / "trials.jsonl").read_text().splitlines()
