@@ -19,7 +19,6 @@ action per agent inside ``env.action_space(agent)`` (:mod:`infoseek.planners.con
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
@@ -35,9 +34,32 @@ from infoseek.planners.coordination import CoordinationResult, UtilityFunction, 
 from infoseek.planners.information import BeliefMI
 from infoseek.planners.model import EnvModel, FloatArray
 from infoseek.planners.refinement import GridRefiner
-from infoseek.planners.utilities import subsample_particles
+from infoseek.planners.utilities import PlanningBelief, subsample_particles
 
-__all__ = ["FloatArray", "InformationPlanner", "PlanDiagnostics", "Planner"]
+__all__ = ["FloatArray", "InformationPlanner", "PlanDiagnostics", "Planner", "planning_beliefs"]
+
+
+def planning_beliefs(
+    agents: list[str], infos: Mapping[str, Any], n_planning: int, rng: np.random.Generator
+) -> list[PlanningBelief]:
+    """Each agent's own belief ``infos[agent]["belief"]``, subsampled to ``n_planning``
+    equally weighted planning particles with ``rng``.
+
+    Raises:
+        ValueError: An agent's infos hold no belief (the env was built without
+            ``belief_in_infos=True``).
+    """
+    beliefs = []
+    for agent in agents:
+        info = infos[agent]
+        if "belief" not in info:
+            raise ValueError(
+                f"infos[{agent!r}] has no 'belief': build the environment with "
+                "belief_in_infos=True (the information planners read each agent's own "
+                "belief from its infos)"
+            )
+        beliefs.append(subsample_particles(info["belief"], n_planning, rng))
+    return beliefs
 
 
 class Planner(ABC):
@@ -129,6 +151,35 @@ class PlanDiagnostics:
     refined: bool
     planning_time: float
     utility_time: float
+
+    @classmethod
+    def from_coordination(
+        cls,
+        agents: list[str],
+        controls: FloatArray,
+        result: CoordinationResult,
+        *,
+        refined: bool,
+        planning_time: float,
+        utility_time: float,
+        grid_controls: FloatArray | None = None,
+    ) -> PlanDiagnostics:
+        """The diagnostics of a decision whose coordination returned ``result`` and whose sent
+        controls are ``controls`` (``grid_controls``: default ``result.controls``)."""
+        return cls(
+            agents=tuple(agents),
+            controls=controls,
+            grid_controls=result.controls if grid_controls is None else grid_controls,
+            utilities=result.utilities,
+            iterations=result.iterations,
+            converged=result.converged,
+            max_violation=result.max_violation,
+            agreement_residual=result.agreement_residual,
+            beta=result.beta,
+            refined=refined,
+            planning_time=planning_time,
+            utility_time=utility_time,
+        )
 
 
 class InformationPlanner(Planner):
@@ -223,18 +274,10 @@ class InformationPlanner(Planner):
     def _beliefs(self, agents: list[str], infos: Mapping[str, Any]) -> list[BeliefMI]:
         """Each agent's own belief, subsampled to the planning particles and bound to the
         estimator (a :class:`BeliefMI` that caches per-pose work for this step)."""
-        beliefs = []
-        for agent in agents:
-            info = infos[agent]
-            if "belief" not in info:
-                raise ValueError(
-                    f"infos[{agent!r}] has no 'belief': build the environment with "
-                    "belief_in_infos=True (the information planners read each agent's own "
-                    "belief from its infos)"
-                )
-            planning = subsample_particles(info["belief"], self.config.n_planning, self.rng)
-            beliefs.append(self.estimator.bind(planning.particles, planning.weights))
-        return beliefs
+        return [
+            self.estimator.bind(planning.particles, planning.weights)
+            for planning in planning_beliefs(agents, infos, self.config.n_planning, self.rng)
+        ]
 
     # -- subclass hooks
     def _utility_function(
@@ -277,23 +320,12 @@ class InformationPlanner(Planner):
         refined = self._refiner is not None
         if refined:
             controls = self._refine(rows, result, utility, tracks)
-        diagnostics = PlanDiagnostics(
-            agents=tuple(agents),
-            controls=controls,
-            grid_controls=result.controls,
-            utilities=result.utilities,
-            iterations=result.iterations,
-            converged=result.converged,
-            max_violation=result.max_violation,
-            agreement_residual=result.agreement_residual,
-            beta=result.beta,
-            refined=refined,
-            planning_time=0.0,
-            utility_time=0.0,
-        )
         actions = controls_to_actions(self.model, agents, controls)
-        self.last_plan = dataclasses.replace(
-            diagnostics,
+        self.last_plan = PlanDiagnostics.from_coordination(
+            agents,
+            controls,
+            result,
+            refined=refined,
             planning_time=time.perf_counter() - start,
             utility_time=self._utility_seconds,
         )

@@ -38,7 +38,6 @@ sensor with one observation coordinate (bearing, range), not the beacon.
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -47,13 +46,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from infoseek.planners.base import PlanDiagnostics, Planner
+from infoseek.planners.base import PlanDiagnostics, Planner, planning_beliefs
 from infoseek.planners.config import PlannerConfig
 from infoseek.planners.controls import candidate_grid, controls_to_actions
 from infoseek.planners.coordination import coordinate
 from infoseek.planners.horizon_information import HorizonInformation
 from infoseek.planners.model import EnvModel, FloatArray
-from infoseek.planners.utilities import subsample_particles
 
 __all__ = ["RecedingHorizonConfig", "RecedingHorizonPlanner"]
 
@@ -130,16 +128,8 @@ class RecedingHorizonPlanner(Planner):
         rows = [self.model.agent_index(agent) for agent in agents]
         tracks = self._tracks(states[rows])
         n_vehicles, n_seq, horizon, _ = tracks.shape
-        beliefs = []
-        for agent in agents:
-            if "belief" not in infos[agent]:
-                raise ValueError(
-                    f"infos[{agent!r}] has no 'belief': build the environment with "
-                    "belief_in_infos=True"
-                )
-            beliefs.append(
-                subsample_particles(infos[agent]["belief"], self.config.n_planning, self.rng)
-            )
+        beliefs = planning_beliefs(agents, infos, self.config.n_planning, self.rng)
+        tic = time.perf_counter()
         own = [
             self.information.pose_terms(b.particles, tracks[i].reshape(-1, 2))
             .reshape(n_seq, horizon, b.weights.size, b.weights.size)
@@ -149,6 +139,7 @@ class RecedingHorizonPlanner(Planner):
         partner_terms: list[dict[tuple[int, int], FloatArray]] = [{} for _ in agents]
 
         def utility(i: int, plans: NDArray[np.int64]) -> FloatArray:
+            tic = time.perf_counter()
             total = own[i]
             for j in range(n_vehicles):
                 if j == i:
@@ -158,9 +149,12 @@ class RecedingHorizonPlanner(Planner):
                     terms = self.information.pose_terms(beliefs[i].particles, tracks[j, key[1]])
                     partner_terms[i][key] = terms.sum(axis=0)
                 total = total + partner_terms[i][key]
-            return self.information.value(total, beliefs[i].weights)
+            value = self.information.value(total, beliefs[i].weights)
+            seconds.append(time.perf_counter() - tic)
+            return value
 
         alone = [self.information.value(own[i], b.weights) for i, b in enumerate(beliefs)]
+        seconds = [time.perf_counter() - tic]  # the information work; each utility call adds
         flat = self.sequences.reshape(n_seq, -1)
         result = coordinate(
             [flat] * n_vehicles,
@@ -170,23 +164,14 @@ class RecedingHorizonPlanner(Planner):
             initial_indices=np.array([int(np.argmax(v)) for v in alone], dtype=np.int64),
         )
         controls = self.sequences[result.indices, 0, :]
-        self.last_plan = PlanDiagnostics(
-            agents=tuple(agents),
-            controls=controls,
-            grid_controls=controls,
-            utilities=result.utilities,
-            iterations=result.iterations,
-            converged=result.converged,
-            max_violation=result.max_violation,
-            agreement_residual=result.agreement_residual,
-            beta=result.beta,
-            refined=False,
-            planning_time=0.0,
-            utility_time=0.0,
-        )
         actions = controls_to_actions(self.model, agents, controls)
-        elapsed = time.perf_counter() - start
-        self.last_plan = dataclasses.replace(
-            self.last_plan, planning_time=elapsed, utility_time=elapsed
+        self.last_plan = PlanDiagnostics.from_coordination(
+            agents,
+            controls,
+            result,
+            grid_controls=controls,
+            refined=False,
+            planning_time=time.perf_counter() - start,
+            utility_time=sum(seconds),
         )
         return actions
