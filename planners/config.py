@@ -18,7 +18,16 @@ from infoseek.envs.sensors.base import Sensor
 from infoseek.planners.coordination import PenaltySettings
 from infoseek.planners.information import METHODS, MIEstimator, make_estimator
 
-__all__ = ["PlannerConfig", "parse_options"]
+__all__ = ["PlannerConfig", "check_positive_integers", "parse_options"]
+
+
+def check_positive_integers(config: Any, names: tuple[str, ...]) -> None:
+    """Raise ``ValueError`` naming the first field of ``config`` in ``names`` that is not an
+    integer ``>= 1`` (a bool is not)."""
+    for name in names:
+        value = getattr(config, name)
+        if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+            raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
 
 
 def parse_options(config_class: type, options: Mapping[str, Any]) -> Any:
@@ -108,15 +117,9 @@ class PlannerConfig:
     max_exhaustive: int = 81
 
     def __post_init__(self) -> None:
-        for name in (
-            "n_planning",
-            "safety_horizon",
-            "max_joint_agents",
-            "max_exhaustive",
-        ):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+        check_positive_integers(
+            self, ("n_planning", "safety_horizon", "max_joint_agents", "max_exhaustive")
+        )
         if self.quadrature_points is not None and self.quadrature_points < 2:
             raise ValueError(
                 f"quadrature_points must be None or >= 2, got {self.quadrature_points}"

@@ -47,7 +47,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from infoseek.planners.base import PlanDiagnostics, Planner, planning_beliefs
-from infoseek.planners.config import PlannerConfig
+from infoseek.planners.config import PlannerConfig, check_positive_integers
 from infoseek.planners.controls import candidate_grid, controls_to_actions
 from infoseek.planners.coordination import coordinate
 from infoseek.planners.horizon_information import HorizonInformation
@@ -75,10 +75,7 @@ class RecedingHorizonConfig(PlannerConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        for name in ("horizon", "hold_grid_size"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+        check_positive_integers(self, ("horizon", "hold_grid_size"))
         if self.hold_grid_size < 2:
             raise ValueError(f"hold_grid_size must be >= 2, got {self.hold_grid_size}")
 
