@@ -348,14 +348,19 @@ class BeliefBatch:
             g = k // (k_rows // z.shape[0])
             mask = received[k]
             self._update_row(k, sensor, z[g][mask], poses[g][mask], loglik[k], result)
-        self.history.append(sensor, z, poses, received)
-        dropped = np.flatnonzero((counts > 0) & (result.n_observations == 0))
-        if dropped.size:
-            self.history.drop_latest(dropped)
+        if self._moves_on():  # only the tempering moves read the history
+            self.history.append(sensor, z, poses, received)
+            dropped = np.flatnonzero((counts > 0) & (result.n_observations == 0))
+            if dropped.size:
+                self.history.drop_latest(dropped)
         return result
 
     def _tempering_on(self) -> bool:
         return self.tempering_ess > 0.0 and self.resample_threshold > 0.0 and self.n_particles > 1
+
+    def _moves_on(self) -> bool:
+        """Whether an update can run tempering moves (which target the kept observations)."""
+        return self._tempering_on() and self.max_tempering_stages > 1 and self.roughening > 0.0
 
     def _update_row(
         self,

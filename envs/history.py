@@ -12,7 +12,8 @@ a static parameter: Gilks & Berzuini 2001; Chopin 2002). :class:`ObservationHist
 entry per update of the batch: its sensor model, ``z`` ``(G, M, obs_dim)``, ``poses``
 ``(G, M, pose_dim)`` and ``received`` ``(K, M)`` (belief ``k`` belongs to group
 ``k // (K / G)``), so that recording costs one copy per step whatever ``K``; a belief's own
-observations are gathered only when a move needs them. Memory grows with the episode length
+observations are gathered only when a move needs them (and a batch records nothing when its
+updates cannot run moves). Memory grows with the episode length
 (``O(T G M)`` numbers), which is what an exact static-target posterior needs.
 """
 
