@@ -595,6 +595,14 @@ def test_tempering_follows_a_sharp_consistent_observation(seed: int) -> None:
     assert np.all((spread > 1.5e-4) & (spread < 6e-4))  # posterior std 3e-4 (+ roughening)
 
 
+def _grid_moments(logp: np.ndarray, grid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and per-coordinate std of the posterior ``exp(logp)`` on the ``(G, 2)`` grid."""
+    post = np.exp(logp - logp.max())
+    post /= post.sum()
+    mean = post @ grid
+    return mean, np.sqrt(post @ (grid - mean) ** 2)
+
+
 def test_tempered_posterior_agrees_with_grid_posterior() -> None:
     """Uniform prior on the box, sharp fix + bearing: tempered particles vs a fine grid."""
     gauss = GaussianPositionSensor(0.25)
@@ -606,10 +614,7 @@ def test_tempered_posterior_agrees_with_grid_posterior() -> None:
     d = 24.0 + (np.arange(800) + 0.5) * 3.0 / 800
     fine = np.stack(np.meshgrid(c, d, indexing="ij"), axis=-1).reshape(-1, 2)
     logp = gauss.log_likelihood(z_g, pose, fine)[0] + bearing.log_likelihood(z_b, pose, fine)[0]
-    post = np.exp(logp - logp.max())
-    post /= post.sum()
-    mean = post @ fine
-    sd = np.sqrt(post @ (fine - mean) ** 2)
+    mean, sd = _grid_moments(logp, fine)
 
     means, sds = [], []
     for seed in range(4):
@@ -630,7 +635,6 @@ def test_tempering_after_earlier_observations_targets_the_exact_posterior() -> N
     """Two 0.05 rad bearings from the west, then a 0.002 rad bearing from the south (tempered,
     on a concentrated prior): particles vs a fine grid of the exact posterior. A move that
     ignores the earlier bearings spreads the particles along the last one (std ~1.3 in y)."""
-    space = TargetSpace.planar()
     truth = np.array([20.0, 20.0])
     west, south = BearingSensor(sigma=0.05), BearingSensor(sigma=0.002)
     poses_w, poses_s = np.array([[0.0, 20.0], [0.0, 22.0]]), np.array([[20.0, 0.0]])
@@ -643,14 +647,11 @@ def test_tempering_after_earlier_observations_targets_the_exact_posterior() -> N
     logp = west.log_likelihood(z_w, poses_w, grid).sum(0) + south.log_likelihood(
         z_s, poses_s, grid
     ).sum(0)
-    post = np.exp(logp - logp.max())
-    post /= post.sum()
-    mean = post @ grid
-    sd = np.sqrt(post @ (grid - mean) ** 2)
+    mean, sd = _grid_moments(logp, grid)
 
     means, sds = [], []
     for seed in range(5):
-        belief = ParticleBelief.from_prior(space, 2000, np.random.default_rng(seed))
+        belief = ParticleBelief.from_prior(PLANAR, 2000, np.random.default_rng(seed))
         belief.update(west, z_w, poses_w)
         belief.resample_if_needed()
         upd = belief.update(south, z_s, poses_s)
@@ -663,8 +664,7 @@ def test_tempering_after_earlier_observations_targets_the_exact_posterior() -> N
 
 def test_a_copy_keeps_the_observations_its_moves_target() -> None:
     """A copy tempers exactly like the original (it carries the kept observations)."""
-    space = TargetSpace.planar()
-    belief = ParticleBelief.from_prior(space, 1000, np.random.default_rng(2))
+    belief = ParticleBelief.from_prior(PLANAR, 1000, np.random.default_rng(2))
     belief.update(BearingSensor(sigma=0.05), np.array([[0.02]]), np.array([[0.0, 20.0]]))
     belief.resample_if_needed()
     twin = belief.copy()
@@ -672,7 +672,7 @@ def test_a_copy_keeps_the_observations_its_moves_target() -> None:
     assert belief.update(sharp, z, pose).n_stages > 1
     twin.update(sharp, z, pose)
     np.testing.assert_array_equal(twin.particles, belief.particles)
-    fresh = ParticleBelief(twin.particles, space, np.random.default_rng(2))
+    fresh = ParticleBelief(twin.particles, PLANAR, np.random.default_rng(2))
     assert fresh.copy().update(sharp, z, pose).n_stages >= 1  # no kept observations: fine
 
 
