@@ -32,8 +32,8 @@ from typing import Any
 
 import numpy as np
 
-from infoseek.experiments.bench import BenchPlan, default_steps, time_to_localise
-from infoseek.experiments.claims import wilcoxon_faster
+from infoseek.experiments.bench import BenchPlan, default_steps
+from infoseek.experiments.claims import times_to_localise, wilcoxon_faster
 from infoseek.experiments.store import read_manifest, read_records
 
 ABLATION_ENV = "bearings_v0"
@@ -169,8 +169,10 @@ def gap_row(
     p = np.array([_padded(pairwise[k], length) for k in trials])
     mass_s, mass_p = s.mean(axis=1), p.mean(axis=1)
     gap, gap_se, gap_p = wilcoxon_faster(mass_p, mass_s)  # "slower" = the larger mass here
-    ttl_s = np.array([_censored_ttl(row, steps) for row in s])
-    ttl_p = np.array([_censored_ttl(row, steps) for row in p])
+    single_ttl = times_to_localise(records, "single", n_agents, steps)
+    pairwise_ttl = times_to_localise(records, "pairwise", n_agents, steps)
+    ttl_s = np.array([single_ttl[k] for k in trials])
+    ttl_p = np.array([pairwise_ttl[k] for k in trials])
     ttl_gap, ttl_se, ttl_pvalue = wilcoxon_faster(ttl_s, ttl_p)
     difference = p - s
     return GapRow(
@@ -197,11 +199,6 @@ def _padded(series: np.ndarray, length: int) -> np.ndarray:
     if series.size >= length:
         return series[:length]
     return np.concatenate([series, np.full(length - series.size, series[-1])])
-
-
-def _censored_ttl(series: np.ndarray, steps: int) -> float:
-    ttl = time_to_localise(series.tolist())
-    return float(steps if ttl is None else ttl)
 
 
 def ablation_rows(out: str | Path, settings: Sequence[AblationSetting] = SETTINGS) -> list[GapRow]:
