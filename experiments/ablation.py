@@ -34,6 +34,7 @@ import numpy as np
 
 from infoseek.experiments.bench import BenchPlan, default_steps
 from infoseek.experiments.claims import times_to_localise, wilcoxon_faster
+from infoseek.experiments.decisions import SWITCHED_PLANNERS
 from infoseek.experiments.store import read_manifest, read_records
 
 ABLATION_ENV = "bearings_v0"
@@ -52,6 +53,8 @@ class AblationSetting:
         value: Its value, as printed.
         env_kwargs: ``bearings_v0`` keyword arguments that realise it.
         fleets: Fleet sizes with a single/pairwise pair of groups.
+        treatments: Further ``(planner label, n_agents)`` groups, each compared with single-node
+            at its fleet size.
     """
 
     name: str
@@ -59,10 +62,18 @@ class AblationSetting:
     value: str
     env_kwargs: dict[str, Any] = field(default_factory=dict)
     fleets: tuple[int, ...] = (4,)
+    treatments: tuple[tuple[str, int], ...] = ()
 
 
 SETTINGS: tuple[AblationSetting, ...] = (
-    AblationSetting("default", "defaults", "sigma 0.1, speed 1, spacing 2, N 2000", {}, (2, 4, 10)),
+    AblationSetting(
+        "default",
+        "defaults",
+        "sigma 0.1, speed 1, spacing 2, N 2000",
+        {},
+        (2, 4, 10),
+        tuple((label, 4) for label in SWITCHED_PLANNERS),
+    ),
     AblationSetting("sigma_0.05", "sigma (rad)", "0.05", {"sensor_kwargs": {"sigma": 0.05}}),
     AblationSetting("sigma_0.2", "sigma (rad)", "0.2", {"sensor_kwargs": {"sigma": 0.2}}),
     AblationSetting("sigma_0.3", "sigma (rad)", "0.3", {"sensor_kwargs": {"sigma": 0.3}}),
@@ -92,6 +103,7 @@ def ablation_plans(
     """
     for setting in settings:
         groups = [(planner, n) for n in setting.fleets for planner in ("single", "pairwise")]
+        groups += list(setting.treatments)
         yield (
             setting.name,
             BenchPlan(
@@ -107,10 +119,12 @@ def ablation_plans(
 
 @dataclass(frozen=True)
 class GapRow:
-    """Pairwise - single at one setting and fleet size (paired by trial).
+    """Pairwise (or another treatment) - single at one setting and fleet size (paired by trial).
 
     Attributes:
         setting, factor, value: The :class:`AblationSetting`.
+        planner: The treatment's planner label (``"pairwise"`` or one of the setting's
+            ``treatments``).
         n_agents: Fleet size.
         trials: Paired trials.
         mass_single: Single's mean of the per-trial mean posterior mass.
@@ -126,6 +140,7 @@ class GapRow:
     setting: str
     factor: str
     value: str
+    planner: str
     n_agents: int
     trials: int
     mass_single: float
@@ -144,6 +159,14 @@ class GapRow:
         """``mass_gap`` relative to ``mass_single``, in percent."""
         return 100.0 * self.mass_gap / self.mass_single
 
+    @property
+    def label(self) -> str:
+        """The row's setting, and the treatment where it is not pairwise-node."""
+        text = f"{self.factor} = {self.value}"
+        if self.planner != "pairwise":
+            text += f"; {SWITCHED_PLANNERS.get(self.planner, self.planner)}"
+        return text
+
 
 def _series_by_trial(
     records: Sequence[Mapping[str, Any]], planner: str, n_agents: int
@@ -156,21 +179,28 @@ def _series_by_trial(
 
 
 def gap_row(
-    setting: AblationSetting, records: Sequence[Mapping[str, Any]], steps: int, n_agents: int
+    setting: AblationSetting,
+    records: Sequence[Mapping[str, Any]],
+    steps: int,
+    n_agents: int,
+    planner: str = "pairwise",
 ) -> GapRow:
-    """The :class:`GapRow` of one setting's store and fleet size (trials both groups hold)."""
+    """The :class:`GapRow` of ``planner`` against single-node in one setting's store at one fleet
+    size (the trials both groups hold)."""
     single = _series_by_trial(records, "single", n_agents)
-    pairwise = _series_by_trial(records, "pairwise", n_agents)
+    pairwise = _series_by_trial(records, planner, n_agents)
     trials = sorted(set(single) & set(pairwise))
     if len(trials) < 2:
-        raise ValueError(f"{setting.name}: fewer than 2 paired trials at n_v = {n_agents}")
+        raise ValueError(
+            f"{setting.name}: fewer than 2 paired trials of {planner} at n_v = {n_agents}"
+        )
     length = steps + 1
     s = np.array([_padded(single[k], length) for k in trials])
     p = np.array([_padded(pairwise[k], length) for k in trials])
     mass_s, mass_p = s.mean(axis=1), p.mean(axis=1)
     gap, gap_se, gap_p = wilcoxon_faster(mass_p, mass_s)  # "slower" = the larger mass here
     single_ttl = times_to_localise(records, "single", n_agents, steps)
-    pairwise_ttl = times_to_localise(records, "pairwise", n_agents, steps)
+    pairwise_ttl = times_to_localise(records, planner, n_agents, steps)
     ttl_s = np.array([single_ttl[k] for k in trials])
     ttl_p = np.array([pairwise_ttl[k] for k in trials])
     ttl_gap, ttl_se, ttl_pvalue = wilcoxon_faster(ttl_s, ttl_p)
@@ -179,6 +209,7 @@ def gap_row(
         setting=setting.name,
         factor=setting.factor,
         value=setting.value,
+        planner=planner,
         n_agents=n_agents,
         trials=len(trials),
         mass_single=float(mass_s.mean()),
@@ -212,22 +243,25 @@ def ablation_rows(out: str | Path, settings: Sequence[AblationSetting] = SETTING
         records = read_records(store)
         for n_agents in setting.fleets:
             rows.append(gap_row(setting, records, steps, n_agents))
+        for planner, n_agents in setting.treatments:
+            rows.append(gap_row(setting, records, steps, n_agents, planner))
     return rows
 
 
 def format_table(rows: Sequence[GapRow]) -> str:
     """Markdown table of the rows (mass gap in percent of single's mass, ttl gap in steps)."""
     head = (
-        "| setting | value | n_v | trials | mass single | mass gap (pw - s) | rel. | p | "
-        "ttl single | ttl gain (s - pw) | p | gap at steps "
+        "| setting | value | planner | n_v | trials | mass single | mass gap (pl - s) | rel. | p | "
+        "ttl single | ttl gain (s - pl) | p | gap at steps "
         + ", ".join(str(t) for t in GAP_STEPS)
-        + " |\n|---|---|---|---|---|---|---|---|---|---|---|---|"
+        + " |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     )
     lines = [head]
     for r in rows:
         curve = ", ".join(f"{r.gap_curve[t]:+.3f}" for t in GAP_STEPS if t < len(r.gap_curve))
         lines.append(
-            f"| {r.factor} | {r.value} | {r.n_agents} | {r.trials} | {r.mass_single:.3f} | "
+            f"| {r.factor} | {r.value} | {SWITCHED_PLANNERS.get(r.planner, r.planner)} | "
+            f"{r.n_agents} | {r.trials} | {r.mass_single:.3f} | "
             f"{r.mass_gap:+.4f} +- {r.mass_gap_se:.4f} | {r.mass_gap_percent:+.1f} % | "
             f"{r.mass_p:.2g} | {r.ttl_single:.2f} | {r.ttl_gap:+.2f} +- {r.ttl_gap_se:.2f} | "
             f"{r.ttl_p:.2g} | {curve} |"
@@ -252,20 +286,22 @@ def plot_ablation(rows: Sequence[GapRow], stem: Path) -> list[Path]:
 
     figure = Figure(figsize=(12, 5), layout="constrained")
     bars, curves = figure.subplots(1, 2, width_ratios=(1, 1.3))
-    labels = [f"{r.factor} = {r.value}, n_v = {r.n_agents}" for r in rows]
+    labels = [f"{r.label}, n_v = {r.n_agents}" for r in rows]
     y = np.arange(len(rows))[::-1]
     gaps = np.array([r.mass_gap_percent for r in rows])
     half = np.array([196.0 * r.mass_gap_se / r.mass_single for r in rows])
     bars.errorbar(gaps, y, xerr=half, fmt="o", capsize=3)
     bars.axvline(0.0, color="0.5", linewidth=0.8)
     bars.set_yticks(y, labels, fontsize=8)
-    bars.set_xlabel("pairwise - single, mean posterior mass over the episode (% of single)")
+    bars.set_xlabel(
+        "pairwise (or variant) - single, mean posterior mass over the episode (% of single)"
+    )
     bars.set_title("(a) Claim A gain by setting (95 % interval)")
     for r in rows:
         if r.n_agents != 4:
             continue
         curve = np.array(r.gap_curve)
-        (line,) = curves.plot(np.arange(curve.size), curve, label=f"{r.factor} = {r.value}")
+        (line,) = curves.plot(np.arange(curve.size), curve, label=r.label)
         se = np.array(r.gap_curve_se)
         curves.fill_between(
             np.arange(curve.size), curve - se, curve + se, alpha=0.15, color=line.get_color()

@@ -261,6 +261,15 @@ def _run_ablation(out: Path, backend: str, workers: int, args: argparse.Namespac
     print(ablation.format_table(rows))
     for path in ablation.write_results(out, rows):
         print(f"wrote {path}")
+    from infoseek.experiments import decisions
+
+    decision_rows = decisions.read_decisions(out)
+    if decision_rows is None:
+        print("decisions: single-node's choices along pairwise-node episodes", flush=True)
+        decision_rows = decisions.decision_rows(seed=args.seed)
+        for path in decisions.write_decisions(out, decision_rows):
+            print(f"wrote {path}")
+    print(decisions.format_decisions(decision_rows))
     return 0
 
 

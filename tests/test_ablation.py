@@ -63,7 +63,14 @@ def test_gap_row_needs_paired_trials() -> None:
 
 def test_ablation_stores_table_and_figure(tmp_path: Path) -> None:
     tiny = (
-        AblationSetting("a", "particles", "100", {"n_particles": 100}, (2,)),
+        AblationSetting(
+            "a",
+            "particles",
+            "100",
+            {"n_particles": 100},
+            (2,),
+            (("infoseek.experiments.decisions:pairwise_first_step", 2),),
+        ),
         AblationSetting(
             "b", "sigma", "0.3", {"n_particles": 100, "sensor_kwargs": {"sigma": 0.3}}, (2,)
         ),
@@ -71,7 +78,11 @@ def test_ablation_stores_table_and_figure(tmp_path: Path) -> None:
     for name, plan in ablation_plans(trials=2, steps=3, settings=tiny):
         run_bench(plan, tmp_path / name / "store", progress=False)
     rows = ablation_rows(tmp_path, settings=tiny)
-    assert [(r.setting, r.n_agents, r.trials) for r in rows] == [("a", 2, 2), ("b", 2, 2)]
+    assert [(r.setting, r.planner, r.n_agents, r.trials) for r in rows] == [
+        ("a", "pairwise", 2, 2),
+        ("a", "infoseek.experiments.decisions:pairwise_first_step", 2, 2),
+        ("b", "pairwise", 2, 2),
+    ]
     assert len(rows[0].gap_curve) == 4
     paths = write_results(tmp_path, rows)
     assert {p.name for p in paths} == {
@@ -80,7 +91,9 @@ def test_ablation_stores_table_and_figure(tmp_path: Path) -> None:
         "ablation.png",
         "ablation.svg",
     }
-    assert "| particles | 100 | 2 | 2 |" in (tmp_path / "ablation.md").read_text()
+    table = (tmp_path / "ablation.md").read_text()
+    assert "| particles | 100 | pairwise | 2 | 2 |" in table
+    assert "| particles | 100 | pairwise at step 0, then single | 2 | 2 |" in table
 
 
 def test_every_setting_is_a_valid_environment() -> None:
