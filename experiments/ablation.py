@@ -161,11 +161,10 @@ class GapRow:
 
     @property
     def label(self) -> str:
-        """The row's setting, and the treatment where it is not pairwise-node."""
-        text = f"{self.factor} = {self.value}"
+        """Short name of the row: its setting, or its treatment where that is not pairwise."""
         if self.planner != "pairwise":
-            text += f"; {SWITCHED_PLANNERS.get(self.planner, self.planner)}"
-        return text
+            return SWITCHED_PLANNERS.get(self.planner, self.planner)
+        return "defaults" if self.factor == "defaults" else f"{self.factor} = {self.value}"
 
 
 def _series_by_trial(
@@ -281,11 +280,12 @@ def write_results(out: str | Path, rows: Sequence[GapRow]) -> list[Path]:
 
 def plot_ablation(rows: Sequence[GapRow], stem: Path) -> list[Path]:
     """(a) the mean-mass gap of every row with its 95 % interval; (b) the gap curves of the
-    ``n_v = 4`` rows over the episode."""
+    ``n_v = 4`` pairwise rows over the episode; (c) those of the treatments at ``n_v = 4``
+    beside pairwise-node in their setting."""
     from matplotlib.figure import Figure
 
-    figure = Figure(figsize=(12, 5), layout="constrained")
-    bars, curves = figure.subplots(1, 2, width_ratios=(1, 1.3))
+    figure = Figure(figsize=(15, 5), layout="constrained")
+    bars, curves, treated = figure.subplots(1, 3, width_ratios=(1, 1.1, 1.1))
     labels = [f"{r.label}, n_v = {r.n_agents}" for r in rows]
     y = np.arange(len(rows))[::-1]
     gaps = np.array([r.mass_gap_percent for r in rows])
@@ -293,28 +293,37 @@ def plot_ablation(rows: Sequence[GapRow], stem: Path) -> list[Path]:
     bars.errorbar(gaps, y, xerr=half, fmt="o", capsize=3)
     bars.axvline(0.0, color="0.5", linewidth=0.8)
     bars.set_yticks(y, labels, fontsize=8)
-    bars.set_xlabel(
-        "pairwise (or variant) - single, mean posterior mass over the episode (% of single)"
-    )
-    bars.set_title("(a) Claim A gain by setting (95 % interval)")
+    bars.set_xlabel("mean posterior mass over the episode, minus single's (% of single)")
+    bars.set_title("(a) gain over single-node by setting (95 % interval)")
+    treated_settings = {r.setting for r in rows if r.planner != "pairwise" and r.n_agents == 4}
     for r in rows:
         if r.n_agents != 4:
             continue
-        curve = np.array(r.gap_curve)
-        (line,) = curves.plot(np.arange(curve.size), curve, label=r.label)
-        se = np.array(r.gap_curve_se)
-        curves.fill_between(
-            np.arange(curve.size), curve - se, curve + se, alpha=0.15, color=line.get_color()
-        )
-    curves.axhline(0.0, color="0.5", linewidth=0.8)
-    curves.set_xlabel("step")
-    curves.set_ylabel("mean paired mass difference, pairwise - single (+- 1 s.e.)")
-    curves.set_title("(b) when the gain is made (n_v = 4)")
-    if any(r.n_agents == 4 for r in rows):
-        curves.legend(fontsize=7)
+        if r.planner == "pairwise":
+            _gap_curve(curves, r, r.label)
+        if r.setting in treated_settings:
+            _gap_curve(treated, r, r.label if r.planner != "pairwise" else "pairwise")
+    for axes, title in (
+        (curves, "(b) when pairwise-node's gain is made (n_v = 4)"),
+        (treated, "(c) pairwise for k steps, then single (n_v = 4)"),
+    ):
+        axes.axhline(0.0, color="0.5", linewidth=0.8)
+        axes.set_xlabel("step")
+        axes.set_ylabel("mean paired mass difference to single (+- 1 s.e.)")
+        axes.set_title(title)
+        if axes.lines[1:]:
+            axes.legend(fontsize=7)
     paths = []
     for suffix in (".png", ".svg"):
         path = stem.with_suffix(suffix)
         figure.savefig(path, dpi=110)
         paths.append(path)
     return paths
+
+
+def _gap_curve(axes: Any, row: GapRow, label: str) -> None:
+    curve = np.array(row.gap_curve)
+    steps = np.arange(curve.size)
+    (line,) = axes.plot(steps, curve, label=label)
+    se = np.array(row.gap_curve_se)
+    axes.fill_between(steps, curve - se, curve + se, alpha=0.15, color=line.get_color())
