@@ -15,10 +15,15 @@ Two responses per trial, both of agent 0's belief as in Fig. 1:
   summary of the whole Fig. 1 curve, ``T`` the episode length);
 * the **time to localise** (first step with mass >= 0.9, censored at ``T``).
 
-For each setting and fleet size the table gives single's mean, the mean paired difference
-pairwise - single with its standard error, the difference relative to single's mean and a
-one-sided Wilcoxon signed-rank p-value (pairwise better), and the **gap curve**: the mean paired
-mass difference at every step, which shows when in the search the gain is made.
+The default setting's store also holds two treatments at ``n_v = 4``, the switched planners
+of :mod:`infoseek.experiments.decisions` (pairwise-node for the first 1 or 5 steps, then
+single-node), each compared with single-node like pairwise-node is: they show which decisions
+make the gain.
+
+For each setting, fleet size and treatment the table gives single's mean, the mean paired
+difference treatment - single with its standard error, the difference relative to single's mean
+and a one-sided Wilcoxon signed-rank p-value (treatment better), and the **gap curve**: the mean
+paired mass difference at every step, which shows when in the search the gain is made.
 """
 
 from __future__ import annotations
