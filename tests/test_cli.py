@@ -271,6 +271,19 @@ def test_claims_detects_a_paired_improvement_and_its_absence(tmp_path: Path, cap
     assert "--trials must be a positive" in capsys.readouterr().err
 
 
+def test_claim_b_with_two_fleet_sizes_is_decided_by_the_paired_wilcoxon_test(
+    tmp_path: Path, capsys
+) -> None:
+    rng = np.random.default_rng(4)
+    base = rng.integers(10, 30, size=30)
+    for name, shift, verdict in (("holds", 3, "holds"), ("fails", -3, "not supported")):
+        times = {("pairwise", 4): base.tolist(), ("pairwise", 2): (base + shift).tolist()}
+        _synthetic_store(tmp_path / name, times, steps=60)
+        assert main(["claims", str(tmp_path / name)]) == 0
+        line = capsys.readouterr().out.split("Claim B")[1].split("\n")[0]
+        assert "two fleet sizes" in line and f"-> {verdict}" in line
+
+
 def test_claims_against_a_baseline_store_are_paired_differences(tmp_path: Path, capsys) -> None:
     rng = np.random.default_rng(2)
     old = rng.integers(10, 30, size=25)
