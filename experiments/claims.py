@@ -36,6 +36,7 @@ from scipy import stats
 
 from infoseek.experiments.arguments import check_results_directory
 from infoseek.experiments.bench import format_summary, summarise, time_to_localise
+from infoseek.experiments.clairvoyant import CLAIRVOYANT_LABEL
 from infoseek.experiments.plot import mass_curves
 from infoseek.experiments.store import read_manifest, read_records
 
@@ -306,6 +307,10 @@ def run_claims(args: argparse.Namespace) -> int:
     for n in sorted(n for planner, n in groups if planner == "horizon"):
         if ("pairwise", n) in groups:
             print(_faster(records, "pairwise", "horizon", n, steps, args.alpha, "Horizon"))
+    for n in sorted(n for planner, n in groups if planner == CLAIRVOYANT_LABEL):
+        if ("pairwise", n) in groups:
+            line = _faster(records, "pairwise", CLAIRVOYANT_LABEL, n, steps, args.alpha, "")
+            print("Clairvoyant reference (knows the target)" + line)
     if manifest["config"].get("env") == "bearings_v0" and all("truth" in r for r in records):
         from infoseek.experiments.bound import describe, store_mass_bounds
 

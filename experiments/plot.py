@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from infoseek.experiments.clairvoyant import CLAIRVOYANT_LABEL
 from infoseek.experiments.store import read_manifest, read_records
 
 PAPER_FLEET_SIZES: tuple[int, ...] = (2, 3, 4, 10)
@@ -114,6 +115,7 @@ _PANEL_A_STYLES = {
     "single": ("--", "C0", "single-node"),
     "pairwise": ("-", "C0", "pairwise-node"),
     "horizon": ("-", "C3", "receding-horizon"),
+    CLAIRVOYANT_LABEL: (":", "C2", "clairvoyant reference (knows the target)"),
     "random": (":", "C7", "random"),
     "lawnmower": ("-.", "C7", "lawnmower"),
 }
