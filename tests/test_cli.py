@@ -452,3 +452,13 @@ def test_committed_fig1_trials_reproduce_on_this_machine() -> None:
     checked = _cli(["verify", str(FIG1_STORE), "--trials", "1", *groups, "--no-progress"])
     assert checked.returncode == 0, checked.stdout + checked.stderr
     assert "2 stored trial(s) rerun: 2 reproduced exactly" in checked.stdout
+
+
+def test_committed_ablation_trial_of_a_switched_planner_reproduces() -> None:
+    """The stored Claim A ablation is the installed code's: trial 0 of the planner that runs
+    pairwise-node for five steps, then single-node, is rerun and must reproduce."""
+    store = FIG1_STORE.parent.parent / "ablation" / "default" / "store"
+    group = "infoseek.experiments.decisions:pairwise_first_5_steps/4"
+    checked = _cli(["verify", str(store), "--trials", "1", "--group", group, "--no-progress"])
+    assert checked.returncode == 0, checked.stdout + checked.stderr
+    assert "1 stored trial(s) rerun: 1 reproduced exactly" in checked.stdout
