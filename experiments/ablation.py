@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from infoseek.experiments.bench import BenchPlan, default_steps
-from infoseek.experiments.claims import times_to_localise, wilcoxon_faster
+from infoseek.experiments.claims import masses_by_trial, times_to_localise, wilcoxon_faster
 from infoseek.experiments.decisions import SWITCHED_PLANNERS
 from infoseek.experiments.store import read_manifest, read_records
 
@@ -172,16 +172,6 @@ class GapRow:
         return "defaults" if self.factor == "defaults" else f"{self.factor} = {self.value}"
 
 
-def _series_by_trial(
-    records: Sequence[Mapping[str, Any]], planner: str, n_agents: int
-) -> dict[int, np.ndarray]:
-    return {
-        int(r["trial"]): np.array([np.nan if v is None else v for v in r["mass_agent0"]], float)
-        for r in records
-        if r["planner"] == planner and int(r["n_agents"]) == n_agents
-    }
-
-
 def gap_row(
     setting: AblationSetting,
     records: Sequence[Mapping[str, Any]],
@@ -191,16 +181,16 @@ def gap_row(
 ) -> GapRow:
     """The :class:`GapRow` of ``planner`` against single-node in one setting's store at one fleet
     size (the trials both groups hold)."""
-    single = _series_by_trial(records, "single", n_agents)
-    pairwise = _series_by_trial(records, planner, n_agents)
+    length = steps + 1
+    single = masses_by_trial(records, "single", n_agents, length)
+    pairwise = masses_by_trial(records, planner, n_agents, length)
     trials = sorted(set(single) & set(pairwise))
     if len(trials) < 2:
         raise ValueError(
             f"{setting.name}: fewer than 2 paired trials of {planner} at n_v = {n_agents}"
         )
-    length = steps + 1
-    s = np.array([_padded(single[k], length) for k in trials])
-    p = np.array([_padded(pairwise[k], length) for k in trials])
+    s = np.array([single[k] for k in trials])
+    p = np.array([pairwise[k] for k in trials])
     mass_s, mass_p = s.mean(axis=1), p.mean(axis=1)
     gap, gap_se, gap_p = wilcoxon_faster(mass_p, mass_s)  # "slower" = the larger mass here
     single_ttl = times_to_localise(records, "single", n_agents, steps)
@@ -227,13 +217,6 @@ def gap_row(
         gap_curve=difference.mean(axis=0).tolist(),
         gap_curve_se=(difference.std(axis=0, ddof=1) / math.sqrt(len(trials))).tolist(),
     )
-
-
-def _padded(series: np.ndarray, length: int) -> np.ndarray:
-    """A trial's mass series padded with its last value (an episode that ended early)."""
-    if series.size >= length:
-        return series[:length]
-    return np.concatenate([series, np.full(length - series.size, series[-1])])
 
 
 def ablation_rows(out: str | Path, settings: Sequence[AblationSetting] = SETTINGS) -> list[GapRow]:

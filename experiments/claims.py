@@ -72,6 +72,38 @@ def times_to_localise(
     return times
 
 
+def masses_by_trial(
+    records: Sequence[Mapping[str, Any]], planner: str, n_agents: int, length: int
+) -> dict[int, np.ndarray]:
+    """``{trial: (length,) mass series of agent 0}`` of one group; an episode that ended early
+    is padded with its last value, ``None`` entries become NaN."""
+    series = {}
+    for record in records:
+        if record["planner"] == planner and int(record["n_agents"]) == n_agents:
+            values = np.array([np.nan if v is None else v for v in record["mass_agent0"]], float)
+            if values.size < length:
+                values = np.concatenate([values, np.full(length - values.size, values[-1])])
+            series[int(record["trial"])] = values[:length]
+    return series
+
+
+def paired_mass_gaps(
+    records: Sequence[Mapping[str, Any]], base: str, other: str, n_agents: int, steps: int
+) -> str:
+    """One line: the mean paired mass difference ``other - base`` at :data:`BAND_STEPS` and 30,
+    with standard errors, over the trials both groups hold (where in the search one wins)."""
+    a = masses_by_trial(records, base, n_agents, steps + 1)
+    b = masses_by_trial(records, other, n_agents, steps + 1)
+    common = sorted(set(a) & set(b))
+    difference = np.array([b[k] - a[k] for k in common])
+    cells = []
+    for step in (t for t in (*BAND_STEPS, 30) if t <= steps):
+        column = difference[:, step]
+        se = column.std(ddof=1) / np.sqrt(column.size) if column.size > 1 else float("nan")
+        cells.append(f"step {step}: {column.mean():+.3f} +- {se:.3f}")
+    return f"    {other} - {base} paired mass, {len(common)} trials: " + ", ".join(cells)
+
+
 def _paired(groups: Sequence[dict[int, float]]) -> np.ndarray:
     """``(trials, groups)`` matrix over the trials every group has."""
     common = sorted(set.intersection(*(set(g) for g in groups)))
@@ -307,6 +339,7 @@ def run_claims(args: argparse.Namespace) -> int:
     for n in sorted(n for planner, n in groups if planner == "horizon"):
         if ("pairwise", n) in groups:
             print(_faster(records, "pairwise", "horizon", n, steps, args.alpha, "Horizon"))
+            print(paired_mass_gaps(records, "pairwise", "horizon", n, steps))
     for n in sorted(n for planner, n in groups if planner == CLAIRVOYANT_LABEL):
         if ("pairwise", n) in groups:
             line = _faster(records, "pairwise", CLAIRVOYANT_LABEL, n, steps, args.alpha, "")

@@ -284,6 +284,24 @@ def test_claim_b_with_two_fleet_sizes_is_decided_by_the_paired_wilcoxon_test(
         assert "two fleet sizes" in line and f"-> {verdict}" in line
 
 
+def test_claims_report_where_the_horizon_planner_gains_mass(tmp_path: Path, capsys) -> None:
+    rng = np.random.default_rng(5)
+    pairwise = rng.integers(4, 25, size=30)
+    horizon = pairwise - rng.integers(0, 4, size=30)
+    times = {("pairwise", 4): pairwise.tolist(), ("horizon", 4): horizon[:20].tolist()}
+    _synthetic_store(tmp_path / "store", times, steps=40)
+    assert main(["claims", str(tmp_path / "store")]) == 0
+    line = capsys.readouterr().out.split("horizon - pairwise paired mass, 20 trials: ")[1]
+    cells = line.split("\n")[0].split(", ")
+    for step, cell in zip((5, 10, 15, 20, 30), cells, strict=True):
+        # mass 0.95 from the time to localise on, 0.5 before it (the synthetic store)
+        gain = 0.45 * ((horizon[:20] <= step) & (pairwise[:20] > step))
+        mean, se = (float(v) for v in cell.split(": ")[1].split(" +- "))
+        assert cell.startswith(f"step {step}: ")
+        assert mean == pytest.approx(gain.mean(), abs=6e-4)
+        assert se == pytest.approx(gain.std(ddof=1) / np.sqrt(20), abs=6e-4)
+
+
 def test_claims_against_a_baseline_store_are_paired_differences(tmp_path: Path, capsys) -> None:
     rng = np.random.default_rng(2)
     old = rng.integers(10, 30, size=25)
