@@ -284,6 +284,28 @@ def test_claim_b_with_two_fleet_sizes_is_decided_by_the_paired_wilcoxon_test(
         assert "two fleet sizes" in line and f"-> {verdict}" in line
 
 
+def test_claim_a_reports_the_paired_mean_mass_difference(tmp_path: Path, capsys) -> None:
+    rng = np.random.default_rng(6)
+    single = rng.integers(4, 25, size=25)
+    pairwise = single - rng.integers(-1, 3, size=25)
+    _synthetic_store(
+        tmp_path / "store", {("single", 4): single.tolist(), ("pairwise", 4): pairwise.tolist()}, 40
+    )
+    assert main(["claims", str(tmp_path / "store")]) == 0
+    line = capsys.readouterr().out.split("mean posterior mass over steps 0-40, pairwise - single: ")
+    gap, rest = line[1].split(" +- ", 1)
+
+    def mean_mass(ttl: np.ndarray) -> np.ndarray:  # 0.5 before the time to localise, then 0.95
+        return (0.5 * ttl + 0.95 * (41 - ttl)) / 41
+
+    difference = mean_mass(pairwise) - mean_mass(single)
+    assert float(gap) == pytest.approx(difference.mean(), abs=6e-5)
+    assert float(rest.split(" ")[0]) == pytest.approx(
+        difference.std(ddof=1) / np.sqrt(25), abs=6e-5
+    )
+    assert float(rest.split("p = ")[1].split("\n")[0]) < 0.05  # pairwise is mostly faster
+
+
 def test_claims_report_where_the_horizon_planner_gains_mass(tmp_path: Path, capsys) -> None:
     rng = np.random.default_rng(5)
     pairwise = rng.integers(4, 25, size=30)
