@@ -556,9 +556,10 @@ def single_threaded_workers() -> Iterator[None]:
                 os.environ[name] = value
 
 
-def _die_with_parent() -> None:
+def _die_with_parent(parent: int) -> None:
     """Worker initializer: on Linux, ask the kernel to kill this worker when its parent dies
-    (a killed ``bench`` then leaves no worker processes behind)."""
+    (a killed ``bench`` then leaves no worker processes behind); a worker whose parent
+    ``parent`` died before this ran (a slow start on a loaded machine) exits at once."""
     if sys.platform.startswith("linux"):
         import ctypes
         import signal
@@ -567,6 +568,8 @@ def _die_with_parent() -> None:
             ctypes.CDLL("libc.so.6").prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
         except (OSError, AttributeError):  # pragma: no cover - exotic libc
             pass
+    if os.getppid() != parent:
+        os._exit(1)
 
 
 def _processes(
@@ -574,7 +577,10 @@ def _processes(
 ) -> Iterator[tuple[TrialSpec, dict[str, Any]]]:
     with single_threaded_workers():
         executor = ProcessPoolExecutor(
-            max_workers=workers, mp_context=_process_context(), initializer=_die_with_parent
+            max_workers=workers,
+            mp_context=_process_context(),
+            initializer=_die_with_parent,
+            initargs=(os.getpid(),),
         )
         executor.submit(int).result()  # start the workers while the variables are set
     try:
