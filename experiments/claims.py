@@ -35,7 +35,7 @@ import numpy as np
 from scipy import stats
 
 from infoseek.experiments.arguments import check_results_directory
-from infoseek.experiments.bench import format_summary, summarise, time_to_localise
+from infoseek.experiments.bench import format_summary, make_env, summarise, time_to_localise
 from infoseek.experiments.clairvoyant import CLAIRVOYANT_LABEL
 from infoseek.experiments.plot import mass_curves
 from infoseek.experiments.store import read_manifest, read_records
@@ -245,15 +245,29 @@ def baseline_lines(
     return lines
 
 
-def distance_lines(records: Sequence[Mapping[str, Any]], steps: int) -> list[str]:
+def start_centre(env: str, env_kwargs: Mapping[str, Any], n_agents: int) -> np.ndarray:
+    """``(2,)`` mean start position of ``n_agents`` vehicles in ``env`` built with
+    ``env_kwargs`` (the start grid depends on the fleet size and spacing)."""
+    built = make_env(env, n_agents=n_agents, **env_kwargs)
+    try:
+        return np.asarray(built.unwrapped.config.start_positions, float).mean(axis=0)
+    finally:
+        built.close()
+
+
+def distance_lines(
+    records: Sequence[Mapping[str, Any]],
+    steps: int,
+    centres: Mapping[int, np.ndarray],
+) -> list[str]:
     """Per group: least-squares fit ``ttl = a d_0 + b`` of the time to localise against the
-    target's initial distance ``d_0`` from the centre (5, 5) of the default start grid, with
-    the correlation and the residual standard deviation."""
+    target's initial distance ``d_0`` from the fleet's mean start position ``centres[n_v]``,
+    with the correlation and the residual standard deviation."""
     lines = []
     groups = sorted({(r["planner"], int(r["n_agents"])) for r in records}, key=lambda g: g[::-1])
     for planner, n_agents in groups:
         times = times_to_localise(records, planner, n_agents, steps)
-        centre = np.asarray(START_CENTRE)
+        centre = centres[n_agents]
         distance = {
             int(r["trial"]): float(np.linalg.norm(np.asarray(r["truth"][:2]) - centre))
             for r in records
@@ -271,10 +285,6 @@ def distance_lines(records: Sequence[Mapping[str, Any]], steps: int) -> list[str
             f"{np.corrcoef(d, y)[0, 1]:.2f}, residual sd {residual.std(ddof=2):.2f} steps)"
         )
     return lines
-
-
-#: Centre of the default start grid of both environments (``start_center``).
-START_CENTRE = (5.0, 5.0)
 
 
 def _claim_b(
@@ -370,10 +380,16 @@ def run_claims(args: argparse.Namespace) -> int:
         env_kwargs = manifest["config"].get("env_kwargs", {})
         print("Clairvoyant bound (infoseek.experiments.bound; Gaussian-posterior assumption):")
         print(describe(store_mass_bounds(records, env_kwargs, steps)))
-    moved = {"start_center", "start_positions"} & set(manifest["config"].get("env_kwargs", {}))
-    if all("truth" in r for r in records) and not moved:
-        print("Time to localise against the target's initial distance d0 from the start centre:")
-        print("\n".join(distance_lines(records, steps)))
+    if all("truth" in r for r in records):
+        config = manifest["config"]
+        fleets = {int(r["n_agents"]) for r in records}
+        env_kwargs = config.get("env_kwargs", {})
+        centres = {n: start_centre(config["env"], env_kwargs, n) for n in fleets}
+        print(
+            "Time to localise against the target's initial distance d0 from the fleet's mean "
+            "start position:"
+        )
+        print("\n".join(distance_lines(records, steps, centres)))
     if baseline is not None:
         print(f"Against the baseline {args.baseline} (same seeds):")
         print("\n".join(baseline_lines(records, baseline, steps)))

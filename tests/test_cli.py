@@ -360,11 +360,23 @@ def test_distance_fit_recovers_a_linear_time_to_localise() -> None:
                 "mass_agent0": mass,
             }
         )
-    (line,) = distance_lines(records, 60)
+    (line,) = distance_lines(records, 60, {4: np.array([5.0, 5.0])})
     d = np.array([np.hypot(*(np.array(r["truth"]) - 5.0)) for r in records])
     y = np.array([r["mass_agent0"].index(0.95) for r in records])
     slope, intercept = np.polyfit(d, y, 1)
     assert f"ttl = {slope:.2f} d0 {intercept:+.2f}" in line and abs(slope - 0.5) < 0.05
+
+
+def test_start_centre_is_the_mean_of_the_fleets_start_grid() -> None:
+    from infoseek.envs import bearings_v0
+    from infoseek.experiments.claims import start_centre
+
+    np.testing.assert_allclose(start_centre("bearings_v0", {}, 4), [5.0, 5.0])
+    spread = start_centre("bearings_v0", {"start_spacing": 6.0}, 10)
+    env = bearings_v0.parallel_env(n_agents=10, start_spacing=6.0)
+    observations, infos = env.reset(seed=0)
+    positions = infos[env.possible_agents[0]]["vehicle_states"][:, :2]
+    np.testing.assert_allclose(spread, positions.mean(axis=0))
 
 
 def test_claims_rejects_unpaired_stores(tmp_path: Path, capsys) -> None:
