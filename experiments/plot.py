@@ -86,7 +86,7 @@ def _style(axes: Any, title: str, radius: float) -> None:
     axes.set_ylabel(f"P(target within {radius:g} of MMSE estimate)")
     axes.set_ylim(-0.02, 1.02)
     axes.grid(alpha=0.3)
-    axes.legend(loc="upper left", fontsize="small")
+    axes.legend(loc="lower right", fontsize="small")
 
 
 def fig1_panels(groups: Sequence[tuple[str, int]]) -> list[tuple[str, list[tuple[str, int]]]]:
