@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from infoseek.experiments.bench import BenchPlan, default_steps
-from infoseek.experiments.claims import masses_by_trial, times_to_localise, wilcoxon_faster
+from infoseek.experiments.claims import paired_masses, times_to_localise, wilcoxon_faster
 from infoseek.experiments.decisions import SWITCHED_PLANNERS
 from infoseek.experiments.store import read_manifest, read_records
 
@@ -181,16 +181,11 @@ def gap_row(
 ) -> GapRow:
     """The :class:`GapRow` of ``planner`` against single-node in one setting's store at one fleet
     size (the trials both groups hold)."""
-    length = steps + 1
-    single = masses_by_trial(records, "single", n_agents, length)
-    pairwise = masses_by_trial(records, planner, n_agents, length)
-    trials = sorted(set(single) & set(pairwise))
+    trials, s, p = paired_masses(records, "single", planner, n_agents, steps)
     if len(trials) < 2:
         raise ValueError(
             f"{setting.name}: fewer than 2 paired trials of {planner} at n_v = {n_agents}"
         )
-    s = np.array([single[k] for k in trials])
-    p = np.array([pairwise[k] for k in trials])
     mass_s, mass_p = s.mean(axis=1), p.mean(axis=1)
     gap, gap_se, gap_p = wilcoxon_faster(mass_p, mass_s)  # "slower" = the larger mass here
     single_ttl = times_to_localise(records, "single", n_agents, steps)

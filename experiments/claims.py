@@ -37,7 +37,7 @@ from scipy import stats
 from infoseek.experiments.arguments import check_results_directory
 from infoseek.experiments.bench import format_summary, make_env, summarise, time_to_localise
 from infoseek.experiments.clairvoyant import CLAIRVOYANT_LABEL
-from infoseek.experiments.plot import mass_curves
+from infoseek.experiments.plot import mass_curves, padded_series
 from infoseek.experiments.store import read_manifest, read_records
 
 
@@ -75,16 +75,29 @@ def times_to_localise(
 def masses_by_trial(
     records: Sequence[Mapping[str, Any]], planner: str, n_agents: int, length: int
 ) -> dict[int, np.ndarray]:
-    """``{trial: (length,) mass series of agent 0}`` of one group; an episode that ended early
-    is padded with its last value, ``None`` entries become NaN."""
-    series = {}
-    for record in records:
-        if record["planner"] == planner and int(record["n_agents"]) == n_agents:
-            values = np.array([np.nan if v is None else v for v in record["mass_agent0"]], float)
-            if values.size < length:
-                values = np.concatenate([values, np.full(length - values.size, values[-1])])
-            series[int(record["trial"])] = values[:length]
-    return series
+    """``{trial: (length,) mass series of agent 0}`` of one group (see
+    :func:`~infoseek.experiments.plot.padded_series`)."""
+    return {
+        int(record["trial"]): padded_series(record["mass_agent0"], length)
+        for record in records
+        if record["planner"] == planner and int(record["n_agents"]) == n_agents
+    }
+
+
+def paired_masses(
+    records: Sequence[Mapping[str, Any]], base: str, other: str, n_agents: int, steps: int
+) -> tuple[list[int], np.ndarray, np.ndarray]:
+    """``(trials, base masses, other masses)``: the trials both groups hold, ascending, and their
+    ``(trials, steps + 1)`` mass series of agent 0."""
+    a = masses_by_trial(records, base, n_agents, steps + 1)
+    b = masses_by_trial(records, other, n_agents, steps + 1)
+    common = sorted(set(a) & set(b))
+    shape = (len(common), steps + 1)
+    return (
+        common,
+        np.array([a[k] for k in common]).reshape(shape),
+        np.array([b[k] for k in common]).reshape(shape),
+    )
 
 
 def paired_mass_gaps(
@@ -92,10 +105,8 @@ def paired_mass_gaps(
 ) -> str:
     """One line: the mean paired mass difference ``other - base`` at :data:`BAND_STEPS` and 30,
     with standard errors, over the trials both groups hold (where in the search one wins)."""
-    a = masses_by_trial(records, base, n_agents, steps + 1)
-    b = masses_by_trial(records, other, n_agents, steps + 1)
-    common = sorted(set(a) & set(b))
-    difference = np.array([b[k] - a[k] for k in common])
+    common, a, b = paired_masses(records, base, other, n_agents, steps)
+    difference = b - a
     cells = []
     for step in (t for t in (*BAND_STEPS, 30) if t <= steps):
         column = difference[:, step]
@@ -110,11 +121,8 @@ def mean_mass_line(
     """One line: the paired difference ``other - base`` of the mean posterior mass over steps
     ``0..steps`` (a low-variance summary of the whole curve) with a one-sided Wilcoxon test
     (``other`` higher)."""
-    a = masses_by_trial(records, base, n_agents, steps + 1)
-    b = masses_by_trial(records, other, n_agents, steps + 1)
-    common = sorted(set(a) & set(b))
-    mean_a = np.array([np.nanmean(a[k]) for k in common])
-    mean_b = np.array([np.nanmean(b[k]) for k in common])
+    _, a, b = paired_masses(records, base, other, n_agents, steps)
+    mean_a, mean_b = np.nanmean(a, axis=1), np.nanmean(b, axis=1)
     gap, se, p = wilcoxon_faster(mean_b, mean_a)  # "slower" = the larger mass here
     return (
         f"    mean posterior mass over steps 0-{steps}, {other} - {base}: {gap:+.4f} +- {se:.4f} "

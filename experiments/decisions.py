@@ -118,7 +118,8 @@ class DecisionRow:
 
 
 def trial_differences(n_agents: int, trial: int, seed: int = 0) -> np.ndarray:
-    """``(steps, n_agents)`` turn-rate differences single - pairwise along one pairwise episode.
+    """``(steps, n_agents)`` absolute turn-rate differences ``|single - pairwise|`` along one
+    pairwise episode.
 
     The episode runs the environment's full length (``NaN`` rows after it ends early).
     """

@@ -46,16 +46,23 @@ def mass_curves(
         ``(planner, n_agents) -> (n_trials, T + 1)`` array, shorter trials padded with their
         last value (``None`` entries become NaN).
     """
-    grouped: dict[tuple[str, int], list[list[float]]] = {}
+    grouped: dict[tuple[str, int], list[Sequence[float | None]]] = {}
     for record in records:
-        series = [np.nan if v is None else float(v) for v in record[field]]
-        grouped.setdefault((record["planner"], int(record["n_agents"])), []).append(series)
+        grouped.setdefault((record["planner"], int(record["n_agents"])), []).append(record[field])
     curves = {}
     for key, rows in grouped.items():
         length = max(len(row) for row in rows)
-        matrix = np.array([row + row[-1:] * (length - len(row)) for row in rows], dtype=float)
-        curves[key] = matrix
+        curves[key] = np.array([padded_series(row, length) for row in rows])
     return curves
+
+
+def padded_series(values: Sequence[float | None], length: int) -> np.ndarray:
+    """``(length,)`` float array of a trial's per-step series: ``None`` becomes NaN, an episode
+    that ended early is padded with its last value, a longer one cut."""
+    series = np.array([np.nan if v is None else v for v in values], dtype=float)
+    if series.size < length:
+        series = np.concatenate([series, np.full(length - series.size, series[-1])])
+    return series[:length]
 
 
 def _draw_group(
