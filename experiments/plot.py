@@ -105,7 +105,8 @@ def fig1_panels(groups: Sequence[tuple[str, int]]) -> list[tuple[str, list[tuple
     Returns:
         ``[(panel id, [(planner, n_agents), ...]), ...]`` with panel ids ``"a"`` (single,
         pairwise and, where stored, the random and lawnmower baselines at ``n_v = 4``), ``"b"``
-        (pairwise, every stored fleet size, ascending) or, when neither applies, ``"all"``
+        (pairwise, every stored fleet size, ascending), ``"c"`` (the receding-horizon planner
+        beside pairwise at every other stored fleet size) or, when none applies, ``"all"``
         (every group).
     """
     available = set(groups)
@@ -113,7 +114,12 @@ def fig1_panels(groups: Sequence[tuple[str, int]]) -> list[tuple[str, list[tuple
     if not {("single", 4), ("pairwise", 4)} & available:
         panel_a = []  # the baselines alone are no panel (a)
     panel_b = sorted((g for g in available if g[0] == "pairwise"), key=lambda g: g[1])
-    panels = [(name, keys) for name, keys in (("a", panel_a), ("b", panel_b)) if keys]
+    horizon_sizes = sorted(n for p, n in available if p == "horizon" and n != 4)
+    panel_c = [
+        (p, n) for n in horizon_sizes for p in ("pairwise", "horizon") if (p, n) in available
+    ]
+    listed = (("a", panel_a), ("b", panel_b), ("c", panel_c))
+    panels = [(name, keys) for name, keys in listed if keys]
     return panels or [("all", sorted(available))]
 
 
@@ -130,6 +136,7 @@ _PANEL_A_STYLES = {
 _PANEL_TITLES = {
     "a": "(a) $n_v = 4$",
     "b": "(b) pairwise-node, varying fleet size",
+    "c": "(c) receding-horizon and pairwise-node, other fleet sizes",
     "all": "all stored runs",
 }
 
@@ -174,13 +181,17 @@ def plot_fig1(
                 label = f"{name} {count}"
             elif panel == "b":
                 label, style, color = f"$n_v = {n_agents}$ {count}", "-", f"C{position % 10}"
+            elif panel == "c":
+                style, color, name = _PANEL_A_STYLES[planner]
+                label = f"{name}, $n_v = {n_agents}$ {count}"
+                style = "-" if n_agents == min(n for _, n in keys) else "--"
             else:
                 label = f"{planner}, $n_v = {n_agents}$ {count}"
                 style, color = "-", f"C{position % 10}"
             _draw_group(axes, matrix, label, linestyle=style, color=color, offset=offset)
         for position, n_agents in enumerate(sorted({n for _, n in keys})):
-            if bounds is not None and n_agents in bounds and panel in ("a", "b"):
-                color = "k" if panel == "a" else f"C{position % 10}"
+            if bounds is not None and n_agents in bounds and panel in ("a", "b", "c"):
+                color = f"C{position % 10}" if panel == "b" else "k"
                 axes.plot(
                     bounds[n_agents].mean(axis=0),
                     linestyle=":",

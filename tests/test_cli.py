@@ -96,6 +96,12 @@ def test_fig1_panels_follow_the_paper() -> None:
         ("a", [("single", 4), ("pairwise", 4), ("random", 4)]),
         ("b", [("pairwise", 2), ("pairwise", 4), ("pairwise", 10)]),
     ]
+    with_horizon = [("horizon", 10), ("horizon", 4), ("horizon", 2), *groups]
+    assert fig1_panels(with_horizon)[2] == (
+        "c",
+        [("pairwise", 2), ("horizon", 2), ("pairwise", 10), ("horizon", 10)],
+    )
+    assert fig1_panels(with_horizon)[0][1][2] == ("horizon", 4)
     assert fig1_panels([("random", 4), ("lawnmower", 4)]) == [
         ("all", [("lawnmower", 4), ("random", 4)])
     ]
