@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -475,6 +476,19 @@ def build_parser() -> argparse.ArgumentParser:
         add_arguments(subparser)
         subparser.set_defaults(handler=handler)
     return parser
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    """Turn SIGTERM into the Ctrl-C path (stored trials compacted, exit 130)."""
+    raise KeyboardInterrupt
+
+
+def stop_on_signals() -> None:
+    """SIGINT and SIGTERM both stop a command the way Ctrl-C does, also in a background job
+    (where a shell starts commands with SIGINT ignored) and under ``kill``, so a bench stopped
+    either way writes its journal to a Parquet part before it exits."""
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, _interrupt)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -16,11 +16,14 @@ TRIAL_COMMANDS = frozenset({"bench", "reproduce", "verify"})
 
 
 def main() -> int:
-    """Pin (for trial commands), then ``infoseek.experiments.cli.main``."""
+    """Pin (for trial commands), stop on SIGINT/SIGTERM as on Ctrl-C, then
+    ``infoseek.experiments.cli.main``."""
     if len(sys.argv) > 1 and sys.argv[1] in TRIAL_COMMANDS:
         pin()
     from infoseek.experiments.cli import main as cli_main
+    from infoseek.experiments.cli import stop_on_signals
 
+    stop_on_signals()
     return cli_main()
 
 

@@ -151,8 +151,8 @@ def _running(pid: int) -> bool:
     return state != "Z"
 
 
-@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
-def test_a_killed_multi_process_bench_leaves_no_workers(tmp_path: Path) -> None:
+def _start_two_worker_bench(tmp_path: Path) -> tuple[subprocess.Popen[bytes], Path]:
+    """A slow two-worker bench in a subprocess, returned once its first trial is journaled."""
     environ = {**os.environ, "PYTHONPATH": str(TESTS_DIR), "INFOSEEK_TEST_SLEEP": "0.2"}
     args = ["bench", "--planner", "test_bench:sleepy_random_policy", "--agents", "2"]
     args += ["--trials", "20", "--steps", "5", "--particles", "100", "--workers", "2"]
@@ -167,6 +167,22 @@ def test_a_killed_multi_process_bench_leaves_no_workers(tmp_path: Path) -> None:
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and not (journal.exists() and journal.stat().st_size):
         time.sleep(0.05)
+    return process, journal
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_a_terminated_bench_stores_its_finished_trials_in_a_part(tmp_path: Path) -> None:
+    process, journal = _start_two_worker_bench(tmp_path)
+    assert journal.stat().st_size  # at least one trial finished
+    process.send_signal(signal.SIGTERM)
+    assert process.wait(timeout=60) == cli.EXIT_INTERRUPTED
+    assert journal.stat().st_size == 0  # compacted: the trials are in a part
+    assert list((tmp_path / "run" / "parts").glob("part-*.parquet"))
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_a_killed_multi_process_bench_leaves_no_workers(tmp_path: Path) -> None:
+    process, journal = _start_two_worker_bench(tmp_path)
     workers = _descendants(process.pid)
     assert len(workers) >= 2  # the pool is running
     process.send_signal(signal.SIGKILL)
