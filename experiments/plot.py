@@ -182,9 +182,9 @@ def plot_fig1(
             elif panel == "b":
                 label, style, color = f"$n_v = {n_agents}$ {count}", "-", f"C{position % 10}"
             elif panel == "c":
-                style, color, name = _PANEL_A_STYLES[planner]
+                _, color, name = _PANEL_A_STYLES[planner]  # colour by planner, dash by fleet
                 label = f"{name}, $n_v = {n_agents}$ {count}"
-                style = "-" if n_agents == min(n for _, n in keys) else "--"
+                style = "-" if n_agents == keys[0][1] else "--"
             else:
                 label = f"{planner}, $n_v = {n_agents}$ {count}"
                 style, color = "-", f"C{position % 10}"
