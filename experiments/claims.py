@@ -383,11 +383,18 @@ def run_claims(args: argparse.Namespace) -> int:
             line = _faster(records, "pairwise", CLAIRVOYANT_LABEL, n, steps, args.alpha, "")
             print("Clairvoyant reference (knows the target)" + line)
     if manifest["config"].get("env") == "bearings_v0" and all("truth" in r for r in records):
-        from infoseek.experiments.bound import describe, store_mass_bounds
+        from infoseek.experiments.bound import (
+            describe,
+            store_mass_bounds,
+            trials_beating_the_bound,
+        )
 
         env_kwargs = manifest["config"].get("env_kwargs", {})
+        bounds = store_mass_bounds(records, env_kwargs, steps)
         print("Clairvoyant bound (infoseek.experiments.bound; Gaussian-posterior assumption):")
-        print(describe(store_mass_bounds(records, env_kwargs, steps)))
+        print(describe(bounds))
+        print("Trials localised before their own bound (where its assumption fails; r: radius):")
+        print(trials_beating_the_bound(records, bounds, env_kwargs, steps))
     if all("truth" in r for r in records):
         config = manifest["config"]
         fleets = {int(r["n_agents"]) for r in records}

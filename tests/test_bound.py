@@ -8,34 +8,41 @@ import numpy as np
 import pytest
 from scipy.special import erf
 
-from infoseek.experiments.bound import mass_bound, store_mass_bounds, time_to_localise_bound
+from infoseek.experiments.bound import (
+    mass_bound,
+    store_mass_bounds,
+    time_to_localise_bound,
+    trials_beating_the_bound,
+)
 from infoseek.experiments.plot import mass_curves
 from infoseek.experiments.store import read_records
 
 FIG1_STORE = Path(__file__).resolve().parents[1] / "experiments" / "results" / "fig1" / "store"
 
 
-def test_per_step_term_bounds_every_point_of_the_reachable_disk() -> None:
-    """Brute force: e^T (n n^T / (sigma^2 d^2)) e at 20,000 points of the disk never exceeds
-    the bound's per-step term (one vehicle at the centre: the bound's first increment)."""
+def test_per_step_term_is_the_maximum_over_the_reachable_disk() -> None:
+    """Brute force: e^T (n n^T / (sigma^2 d^2)) e at 20,000 points inside the disk and 20,000
+    on its boundary never exceeds the bound's per-step term R^2 / (sigma^2 (d0^2 - R^2)^2) (one
+    vehicle at the centre: the bound's first increment), and the boundary attains it."""
     rng = np.random.default_rng(0)
     sigma = 0.1
     for _ in range(20):
         target = rng.uniform(10, 40, 2)
         centre = rng.uniform(0, 10, 2)
         d0 = np.linalg.norm(target - centre)
-        reach = rng.uniform(0.5, 0.9) * d0
+        reach = rng.uniform(0.05, 0.95) * d0
         e = (centre - target) / d0
-        angle = rng.uniform(0, 2 * np.pi, 20_000)
-        rad = reach * np.sqrt(rng.uniform(0, 1, 20_000))
+        angle = rng.uniform(0, 2 * np.pi, 40_000)
+        rad = reach * np.concatenate([np.sqrt(rng.uniform(0, 1, 20_000)), np.ones(20_000)])
         points = centre + np.stack([rad * np.cos(angle), rad * np.sin(angle)], axis=1)
         los = points - target
         d = np.linalg.norm(los, axis=1)
         normal = np.stack([-los[:, 1], los[:, 0]], axis=1) / d[:, None]
         brute = (normal @ e) ** 2 / (sigma**2 * d**2)
         bound = mass_bound(target[None], centre[None], reach, 1.0, sigma, 1.0, 1, 1600.0)
-        term = min(reach, d0 - reach) ** 2 / (sigma**2 * (d0 - reach) ** 4)
+        term = reach**2 / (sigma**2 * (d0**2 - reach**2) ** 2)
         assert brute.max() <= term * (1 + 1e-12)
+        assert brute.max() >= term * (1 - 1e-3)
         assert bound[0, 1] == pytest.approx(max(erf(np.sqrt(term / 2.0)), np.pi / 1600.0))
 
 
@@ -57,6 +64,35 @@ def test_gaussian_disk_mass_never_exceeds_the_directional_bound() -> None:
 def test_time_to_localise_bound_is_the_first_crossing() -> None:
     bounds = np.array([[0.0, 0.5, 0.95, 0.99], [0.0, 0.1, 0.2, 0.3]])
     np.testing.assert_array_equal(time_to_localise_bound(bounds), [2.0, 4.0])
+
+
+def test_trials_beating_their_bound_are_counted_with_their_cause() -> None:
+    """Two hand-made trials against hand-made bounds (first crossings at steps 5 and 2): trial 0
+    localises at step 3, two steps early, with its target 0.5 from the domain's edge and its
+    estimate 1.5 off; trial 1 localises at step 4, after its bound, in the middle."""
+    records = [
+        {
+            "planner": "pairwise",
+            "n_agents": 4,
+            "trial": 0,
+            "truth": [39.5, 20.0],
+            "mass_agent0": [0.0, 0.2, 0.5, 0.95],
+            "error_agent0": [20.0, 5.0, 2.0, 1.5],
+        },
+        {
+            "planner": "pairwise",
+            "n_agents": 4,
+            "trial": 1,
+            "truth": [20.0, 20.0],
+            "mass_agent0": [0.0, 0.2, 0.5, 0.6, 0.91],
+            "error_agent0": [20.0, 5.0, 2.0, 1.0, 0.2],
+        },
+    ]
+    ramp = np.array([[0.0, 0.1, 0.2, 0.3, 0.4, 0.95], [0.0, 0.5, 0.95, 0.96, 0.97, 0.98]])
+    assert trials_beating_the_bound(records, {4: ramp}, {}, 60) == (
+        "  pairwise/4: 1 of 2 trials, 1.00 steps ahead per trial; 1 with the target within r "
+        "of the edge (1 of all trials), 1 with the estimate more than r from the target"
+    )
 
 
 def test_no_stored_fig1_curve_crosses_the_bound() -> None:
