@@ -60,6 +60,8 @@ FloatArray = NDArray[np.float64]
 __all__ = [
     "mass_bound",
     "store_mass_bounds",
+    "bound_times",
+    "headroom",
     "time_to_localise_bound",
     "trials_beating_the_bound",
 ]
@@ -163,6 +165,48 @@ def describe(bounds: Mapping[int, FloatArray]) -> str:
     return "\n".join(lines) if lines else "  bound: no trials"
 
 
+def bound_times(
+    records: Sequence[Mapping[str, Any]], bounds: Mapping[int, FloatArray]
+) -> dict[int, dict[int, float]]:
+    """Fleet size -> ``{trial: the bound's time to localise}`` (rows of :func:`store_mass_bounds`
+    are every trial of a fleet size once, in trial order)."""
+    trials: dict[int, set[int]] = {}
+    for record in records:
+        trials.setdefault(int(record["n_agents"]), set()).add(int(record["trial"]))
+    times = {}
+    for n_agents, numbers in trials.items():
+        first = time_to_localise_bound(bounds[n_agents])
+        times[n_agents] = {trial: float(first[row]) for row, trial in enumerate(sorted(numbers))}
+    return times
+
+
+def headroom(
+    records: Sequence[Mapping[str, Any]],
+    bounds: Mapping[int, FloatArray],
+    steps: int,
+    reference: str = "pairwise",
+) -> str:
+    """One line per fleet size of the ``reference`` planner: its mean time to localise, the
+    bound's over the same trials, and the largest relative reduction the bound leaves, ``1 -
+    bound / reference`` (under the bound's assumption, no planner is faster by more)."""
+    limits = bound_times(records, bounds)
+    times: dict[int, list[tuple[float, float]]] = {}
+    for record in records:
+        if record["planner"] == reference:
+            n_agents, ttl = int(record["n_agents"]), time_to_localise(record["mass_agent0"])
+            times.setdefault(n_agents, []).append(
+                (steps if ttl is None else ttl, limits[n_agents][int(record["trial"])])
+            )
+    lines = []
+    for n_agents, pairs in sorted(times.items()):
+        mean, limit = np.asarray(pairs, dtype=np.float64).mean(axis=0)
+        lines.append(
+            f"  {reference}/{n_agents}: mean ttl {mean:.2f}, bound {limit:.2f} over the same "
+            f"{len(pairs)} trials: at most {100 * (1 - limit / mean):.1f} % faster"
+        )
+    return "\n".join(lines)
+
+
 def trials_beating_the_bound(
     records: Sequence[Mapping[str, Any]],
     bounds: Mapping[int, FloatArray],
@@ -183,13 +227,8 @@ def trials_beating_the_bound(
         env_kwargs: The store's environment options (domain and localisation radius).
         steps: Episode length (never-localised trials are censored there).
     """
-    trials: dict[int, set[int]] = {}
-    for record in records:
-        trials.setdefault(int(record["n_agents"]), set()).add(int(record["trial"]))
-    limits, domains = {}, {}
-    for n_agents, numbers in trials.items():
-        first = time_to_localise_bound(bounds[n_agents])
-        limits[n_agents] = {trial: first[row] for row, trial in enumerate(sorted(numbers))}
+    limits, domains = bound_times(records, bounds), {}
+    for n_agents in limits:
         env = make_env("bearings_v0", n_agents=n_agents, **env_kwargs)
         base = env.unwrapped
         domains[n_agents] = (base.space.low_array[:2], base.space.high_array[:2])

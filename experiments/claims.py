@@ -385,6 +385,7 @@ def run_claims(args: argparse.Namespace) -> int:
     if manifest["config"].get("env") == "bearings_v0" and all("truth" in r for r in records):
         from infoseek.experiments.bound import (
             describe,
+            headroom,
             store_mass_bounds,
             trials_beating_the_bound,
         )
@@ -393,6 +394,8 @@ def run_claims(args: argparse.Namespace) -> int:
         bounds = store_mass_bounds(records, env_kwargs, steps)
         print("Clairvoyant bound (infoseek.experiments.bound; Gaussian-posterior assumption):")
         print(describe(bounds))
+        print("What the bound leaves to gain over pairwise-node (mean time to localise):")
+        print(headroom(records, bounds, steps))
         print("Trials localised before their own bound (where its assumption fails; r: radius):")
         print(trials_beating_the_bound(records, bounds, env_kwargs, steps))
     if all("truth" in r for r in records):

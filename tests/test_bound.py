@@ -9,6 +9,7 @@ import pytest
 from scipy.special import erf
 
 from infoseek.experiments.bound import (
+    headroom,
     mass_bound,
     store_mass_bounds,
     time_to_localise_bound,
@@ -66,7 +67,7 @@ def test_time_to_localise_bound_is_the_first_crossing() -> None:
     np.testing.assert_array_equal(time_to_localise_bound(bounds), [2.0, 4.0])
 
 
-def test_trials_beating_their_bound_are_counted_with_their_cause() -> None:
+def test_trials_beating_their_bound_and_the_headroom_left() -> None:
     """Two hand-made trials against hand-made bounds (first crossings at steps 5 and 2): trial 0
     localises at step 3, two steps early, with its target 0.5 from the domain's edge and its
     estimate 1.5 off; trial 1 localises at step 4, after its bound, in the middle."""
@@ -92,6 +93,12 @@ def test_trials_beating_their_bound_are_counted_with_their_cause() -> None:
     assert trials_beating_the_bound(records, {4: ramp}, {}, 60) == (
         "  pairwise/4: 1 of 2 trials, 1.00 steps ahead per trial; 1 with the target within r "
         "of the edge (1 of all trials), 1 with the estimate more than r from the target"
+    )
+    # headroom pairs each trial with its own bound row: single-node ran trial 1 alone (ttl 4,
+    # bound 2)
+    records.append({**records[1], "planner": "single"})
+    assert headroom(records, {4: ramp}, 60, reference="single") == (
+        "  single/4: mean ttl 4.00, bound 2.00 over the same 1 trials: at most 50.0 % faster"
     )
 
 
