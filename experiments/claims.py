@@ -36,6 +36,13 @@ from scipy import stats
 
 from infoseek.experiments.arguments import check_results_directory
 from infoseek.experiments.bench import format_summary, make_env, summarise, time_to_localise
+from infoseek.experiments.bound import (
+    bound_times,
+    describe,
+    headroom,
+    store_mass_bounds,
+    trials_beating_the_bound,
+)
 from infoseek.experiments.clairvoyant import CLAIRVOYANT_LABEL
 from infoseek.experiments.plot import mass_curves, padded_series
 from infoseek.experiments.store import read_manifest, read_records
@@ -267,29 +274,34 @@ def distance_lines(
     records: Sequence[Mapping[str, Any]],
     steps: int,
     centres: Mapping[int, np.ndarray],
+    bound: Mapping[int, Mapping[int, float]] | None = None,
 ) -> list[str]:
     """Per group: least-squares fit ``ttl = a d_0 + b`` of the time to localise against the
     target's initial distance ``d_0`` from the fleet's mean start position ``centres[n_v]``,
-    with the correlation and the residual standard deviation."""
+    with the correlation and the residual standard deviation; with ``bound`` (fleet size ->
+    ``{trial: the bound's time to localise}``) the same fit of the bound per fleet size."""
+    truths = {(int(r["n_agents"]), int(r["trial"])): r["truth"][:2] for r in records}
+    series = {
+        f"{planner}/{n_agents}": (n_agents, times_to_localise(records, planner, n_agents, steps))
+        for planner, n_agents in sorted(
+            {(r["planner"], int(r["n_agents"])) for r in records}, key=lambda g: g[::-1]
+        )
+    }
+    for n_agents, times in sorted((bound or {}).items()):
+        series[f"bound/{n_agents}"] = (n_agents, dict(times))
     lines = []
-    groups = sorted({(r["planner"], int(r["n_agents"])) for r in records}, key=lambda g: g[::-1])
-    for planner, n_agents in groups:
-        times = times_to_localise(records, planner, n_agents, steps)
-        centre = centres[n_agents]
-        distance = {
-            int(r["trial"]): float(np.linalg.norm(np.asarray(r["truth"][:2]) - centre))
-            for r in records
-            if r["planner"] == planner and int(r["n_agents"]) == n_agents
-        }
+    for label, (n_agents, times) in series.items():
         trials = sorted(times)
-        d = np.array([distance[k] for k in trials])
+        d = np.array(
+            [np.linalg.norm(np.asarray(truths[n_agents, k]) - centres[n_agents]) for k in trials]
+        )
         y = np.array([times[k] for k in trials])
         if d.size < 3 or np.ptp(d) == 0.0:
             continue
         slope, intercept = np.polyfit(d, y, 1)
         residual = y - (slope * d + intercept)
         lines.append(
-            f"  {planner}/{n_agents}: ttl = {slope:.2f} d0 {intercept:+.2f} (correlation "
+            f"  {label}: ttl = {slope:.2f} d0 {intercept:+.2f} (correlation "
             f"{np.corrcoef(d, y)[0, 1]:.2f}, residual sd {residual.std(ddof=2):.2f} steps)"
         )
     return lines
@@ -327,6 +339,21 @@ def _claim_b(
         verdict = "holds" if pairs[0] < alpha else "not supported"
         test = "two fleet sizes, decided by the one-sided Wilcoxon test below"
     return [f"{head}mean ttl {means}; {test} -> {verdict} at alpha = {alpha}", *lines]
+
+
+def _print_bound(
+    records: Sequence[Mapping[str, Any]], env_kwargs: Mapping[str, Any], steps: int
+) -> dict[int, dict[int, float]]:
+    """Print the clairvoyant bound's lines of a ``bearings_v0`` store; returns its times to
+    localise (fleet size -> ``{trial: steps}``)."""
+    bounds = store_mass_bounds(records, env_kwargs, steps)
+    print("Clairvoyant bound (infoseek.experiments.bound; Gaussian-posterior assumption):")
+    print(describe(bounds))
+    print("What the bound leaves to gain over pairwise-node (mean time to localise):")
+    print(headroom(records, bounds, steps))
+    print("Trials localised before their own bound (where its assumption fails; r: radius):")
+    print(trials_beating_the_bound(records, bounds, env_kwargs, steps))
+    return bound_times(records, bounds)
 
 
 def run_claims(args: argparse.Namespace) -> int:
@@ -382,22 +409,9 @@ def run_claims(args: argparse.Namespace) -> int:
         if ("pairwise", n) in groups:
             line = _faster(records, "pairwise", CLAIRVOYANT_LABEL, n, steps, args.alpha, "")
             print("Clairvoyant reference (knows the target)" + line)
+    bound = None
     if manifest["config"].get("env") == "bearings_v0" and all("truth" in r for r in records):
-        from infoseek.experiments.bound import (
-            describe,
-            headroom,
-            store_mass_bounds,
-            trials_beating_the_bound,
-        )
-
-        env_kwargs = manifest["config"].get("env_kwargs", {})
-        bounds = store_mass_bounds(records, env_kwargs, steps)
-        print("Clairvoyant bound (infoseek.experiments.bound; Gaussian-posterior assumption):")
-        print(describe(bounds))
-        print("What the bound leaves to gain over pairwise-node (mean time to localise):")
-        print(headroom(records, bounds, steps))
-        print("Trials localised before their own bound (where its assumption fails; r: radius):")
-        print(trials_beating_the_bound(records, bounds, env_kwargs, steps))
+        bound = _print_bound(records, manifest["config"].get("env_kwargs", {}), steps)
     if all("truth" in r for r in records):
         config = manifest["config"]
         fleets = {int(r["n_agents"]) for r in records}
@@ -407,7 +421,7 @@ def run_claims(args: argparse.Namespace) -> int:
             "Time to localise against the target's initial distance d0 from the fleet's mean "
             "start position:"
         )
-        print("\n".join(distance_lines(records, steps, centres)))
+        print("\n".join(distance_lines(records, steps, centres, bound)))
     if baseline is not None:
         print(f"Against the baseline {args.baseline} (same seeds):")
         print("\n".join(baseline_lines(records, baseline, steps)))

@@ -371,6 +371,11 @@ def test_distance_fit_recovers_a_linear_time_to_localise() -> None:
     y = np.array([r["mass_agent0"].index(0.95) for r in records])
     slope, intercept = np.polyfit(d, y, 1)
     assert f"ttl = {slope:.2f} d0 {intercept:+.2f}" in line and abs(slope - 0.5) < 0.05
+    # a bound exactly linear in d0 is fitted exactly, after the planner's line
+    exact = {4: {r["trial"]: 2.0 * dist + 1.0 for r, dist in zip(records, d, strict=True)}}
+    lines = distance_lines(records, 60, {4: np.array([5.0, 5.0])}, exact)
+    assert lines[0] == line
+    assert lines[1].startswith("  bound/4: ttl = 2.00 d0 +1.00 (correlation 1.00, residual sd 0.00")
 
 
 def test_start_centre_is_the_mean_of_the_fleets_start_grid() -> None:
