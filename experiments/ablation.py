@@ -38,8 +38,9 @@ from typing import Any
 import numpy as np
 
 from infoseek.experiments.bench import BenchPlan, default_steps
-from infoseek.experiments.claims import paired_masses, times_to_localise, wilcoxon_faster
+from infoseek.experiments.claims import times_to_localise, wilcoxon_faster
 from infoseek.experiments.decisions import SWITCHED_PLANNERS
+from infoseek.experiments.plot import paired_masses
 from infoseek.experiments.store import read_manifest, read_records
 
 ABLATION_ENV = "bearings_v0"

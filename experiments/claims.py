@@ -44,7 +44,7 @@ from infoseek.experiments.bound import (
     trials_beating_the_bound,
 )
 from infoseek.experiments.clairvoyant import CLAIRVOYANT_LABEL
-from infoseek.experiments.plot import mass_curves, padded_series
+from infoseek.experiments.plot import mass_curves, paired_masses
 from infoseek.experiments.store import read_manifest, read_records
 
 
@@ -77,34 +77,6 @@ def times_to_localise(
             ttl = time_to_localise(record["mass_agent0"])
             times[int(record["trial"])] = float(steps if ttl is None else ttl)
     return times
-
-
-def masses_by_trial(
-    records: Sequence[Mapping[str, Any]], planner: str, n_agents: int, length: int
-) -> dict[int, np.ndarray]:
-    """``{trial: (length,) mass series of agent 0}`` of one group (see
-    :func:`~infoseek.experiments.plot.padded_series`)."""
-    return {
-        int(record["trial"]): padded_series(record["mass_agent0"], length)
-        for record in records
-        if record["planner"] == planner and int(record["n_agents"]) == n_agents
-    }
-
-
-def paired_masses(
-    records: Sequence[Mapping[str, Any]], base: str, other: str, n_agents: int, steps: int
-) -> tuple[list[int], np.ndarray, np.ndarray]:
-    """``(trials, base masses, other masses)``: the trials both groups hold, ascending, and their
-    ``(trials, steps + 1)`` mass series of agent 0."""
-    a = masses_by_trial(records, base, n_agents, steps + 1)
-    b = masses_by_trial(records, other, n_agents, steps + 1)
-    common = sorted(set(a) & set(b))
-    shape = (len(common), steps + 1)
-    return (
-        common,
-        np.array([a[k] for k in common]).reshape(shape),
-        np.array([b[k] for k in common]).reshape(shape),
-    )
 
 
 def paired_mass_gaps(

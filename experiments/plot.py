@@ -65,6 +65,34 @@ def padded_series(values: Sequence[float | None], length: int) -> np.ndarray:
     return series[:length]
 
 
+def masses_by_trial(
+    records: Sequence[Mapping[str, Any]], planner: str, n_agents: int, length: int
+) -> dict[int, np.ndarray]:
+    """``{trial: (length,) mass series of agent 0}`` of one group (see
+    :func:`padded_series`)."""
+    return {
+        int(record["trial"]): padded_series(record["mass_agent0"], length)
+        for record in records
+        if record["planner"] == planner and int(record["n_agents"]) == n_agents
+    }
+
+
+def paired_masses(
+    records: Sequence[Mapping[str, Any]], base: str, other: str, n_agents: int, steps: int
+) -> tuple[list[int], np.ndarray, np.ndarray]:
+    """``(trials, base masses, other masses)``: the trials both groups hold, ascending, and their
+    ``(trials, steps + 1)`` mass series of agent 0."""
+    a = masses_by_trial(records, base, n_agents, steps + 1)
+    b = masses_by_trial(records, other, n_agents, steps + 1)
+    common = sorted(set(a) & set(b))
+    shape = (len(common), steps + 1)
+    return (
+        common,
+        np.array([a[k] for k in common]).reshape(shape),
+        np.array([b[k] for k in common]).reshape(shape),
+    )
+
+
 def _draw_group(
     axes: Any,
     matrix: np.ndarray,
@@ -87,6 +115,29 @@ def _draw_group(
         axes.plot(marks + offset, level, linestyle="none", marker="_", ms=5, color=line.get_color())
 
 
+def _draw_paired_differences(
+    axes: Any, records: Sequence[Mapping[str, Any]], sizes: Sequence[int], base: str, other: str
+) -> None:
+    """Mean paired mass difference ``other - base`` per step (one line per fleet size, over
+    the trials both groups hold) with a band of one standard error either side."""
+    steps = max(len(r["mass_agent0"]) for r in records) - 1
+    for position, n_agents in enumerate(sizes):
+        trials, a, b = paired_masses(records, base, other, n_agents, steps)
+        difference = b - a
+        mean = np.nanmean(difference, axis=0)
+        se = np.nanstd(difference, axis=0, ddof=1) / np.sqrt(len(trials))
+        color = f"C{position % 10}"
+        x = np.arange(mean.size)
+        axes.fill_between(x, mean - se, mean + se, color=color, alpha=0.25, lw=0)
+        axes.plot(x, mean, color=color, lw=1.6, label=f"$n_v = {n_agents}$ ({len(trials)} pairs)")
+    axes.axhline(0.0, color="k", lw=0.8)
+    axes.set_title(_PANEL_TITLES["c"])
+    axes.set_xlabel("time step")
+    axes.set_ylabel("mass difference (mean +- 1 SE)")
+    axes.grid(alpha=0.3)
+    axes.legend(loc="upper right", fontsize="small")
+
+
 def _style(axes: Any, title: str, radius: float) -> None:
     axes.set_title(title)
     axes.set_xlabel("time step")
@@ -105,19 +156,19 @@ def fig1_panels(groups: Sequence[tuple[str, int]]) -> list[tuple[str, list[tuple
     Returns:
         ``[(panel id, [(planner, n_agents), ...]), ...]`` with panel ids ``"a"`` (single,
         pairwise and, where stored, the random and lawnmower baselines at ``n_v = 4``), ``"b"``
-        (pairwise, every stored fleet size, ascending), ``"c"`` (the receding-horizon planner
-        beside pairwise at every other stored fleet size) or, when none applies, ``"all"``
-        (every group).
+        (pairwise, every stored fleet size, ascending), ``"c"`` (the receding-horizon planner at
+        every fleet size where pairwise is stored too, drawn as the paired mass difference) or,
+        when none applies, ``"all"`` (every group).
     """
     available = set(groups)
     panel_a = [(p, 4) for p in _PANEL_A_STYLES if (p, 4) in available]
     if not {("single", 4), ("pairwise", 4)} & available:
         panel_a = []  # the baselines alone are no panel (a)
     panel_b = sorted((g for g in available if g[0] == "pairwise"), key=lambda g: g[1])
-    horizon_sizes = sorted(n for p, n in available if p == "horizon" and n != 4)
-    panel_c = [
-        (p, n) for n in horizon_sizes for p in ("pairwise", "horizon") if (p, n) in available
-    ]
+    panel_c = sorted(
+        (g for g in available if g[0] == "horizon" and ("pairwise", g[1]) in available),
+        key=lambda g: g[1],
+    )
     listed = (("a", panel_a), ("b", panel_b), ("c", panel_c))
     panels = [(name, keys) for name, keys in listed if keys]
     return panels or [("all", sorted(available))]
@@ -136,7 +187,7 @@ _PANEL_A_STYLES = {
 _PANEL_TITLES = {
     "a": "(a) $n_v = 4$",
     "b": "(b) pairwise-node, varying fleet size",
-    "c": "(c) receding-horizon and pairwise-node, other fleet sizes",
+    "c": "(c) receding-horizon minus pairwise-node, same targets",
     "all": "all stored runs",
 }
 
@@ -172,6 +223,9 @@ def plot_fig1(
     figure = Figure(figsize=(6.2 * len(panels), 4.6), layout="constrained")
     for index, (panel, keys) in enumerate(panels):
         axes = figure.add_subplot(1, len(panels), index + 1)
+        if panel == "c":
+            _draw_paired_differences(axes, records, [n for _, n in keys], "pairwise", "horizon")
+            continue
         for position, (planner, n_agents) in enumerate(keys):
             matrix = curves[planner, n_agents]
             offset = 0.12 * (position - (len(keys) - 1) / 2)
@@ -181,16 +235,12 @@ def plot_fig1(
                 label = f"{name} {count}"
             elif panel == "b":
                 label, style, color = f"$n_v = {n_agents}$ {count}", "-", f"C{position % 10}"
-            elif panel == "c":
-                _, color, name = _PANEL_A_STYLES[planner]  # colour by planner, dash by fleet
-                label = f"{name}, $n_v = {n_agents}$ {count}"
-                style = "-" if n_agents == keys[0][1] else "--"
             else:
                 label = f"{planner}, $n_v = {n_agents}$ {count}"
                 style, color = "-", f"C{position % 10}"
             _draw_group(axes, matrix, label, linestyle=style, color=color, offset=offset)
         for position, n_agents in enumerate(sorted({n for _, n in keys})):
-            if bounds is not None and n_agents in bounds and panel in ("a", "b", "c"):
+            if bounds is not None and n_agents in bounds and panel in ("a", "b"):
                 color = f"C{position % 10}" if panel == "b" else "k"
                 axes.plot(
                     bounds[n_agents].mean(axis=0),

@@ -97,10 +97,9 @@ def test_fig1_panels_follow_the_paper() -> None:
         ("b", [("pairwise", 2), ("pairwise", 4), ("pairwise", 10)]),
     ]
     with_horizon = [("horizon", 10), ("horizon", 4), ("horizon", 2), *groups]
-    assert fig1_panels(with_horizon)[2] == (
-        "c",
-        [("pairwise", 2), ("horizon", 2), ("pairwise", 10), ("horizon", 10)],
-    )
+    assert fig1_panels(with_horizon)[2] == ("c", [("horizon", 2), ("horizon", 4), ("horizon", 10)])
+    # a horizon group without its pairwise partner has no paired difference to draw
+    assert fig1_panels([("horizon", 3), *groups])[2:] == []
     assert fig1_panels(with_horizon)[0][1][2] == ("horizon", 4)
     assert fig1_panels([("random", 4), ("lawnmower", 4)]) == [
         ("all", [("lawnmower", 4), ("random", 4)])
