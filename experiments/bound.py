@@ -16,9 +16,8 @@ to the line of sight. Let ``e`` be the unit vector from :math:`\theta^*` to the 
 along its line of sight keeps the angle and shrinks ``d``, so the maximum over the disk lies on
 its near boundary :math:`p = (d_0 + R\cos\varphi, R\sin\varphi)`, where the term is
 :math:`R^2 (1 - c^2) / (\sigma^2 (A + B c)^2)` with :math:`c = \cos\varphi`,
-:math:`A = d_0^2 + R^2`, :math:`B = 2 d_0 R`. Its derivative in ``c`` vanishes at
-:math:`c = -B / A` (the point of the boundary seen at the widest angle per distance), which
-gives the exact maximum
+:math:`A = d_0^2 + R^2`, :math:`B = 2 d_0 R`. The term vanishes at :math:`c = \pm 1`
+and its derivative in ``c`` only at :math:`c = -B / A`, which gives the exact maximum
 
 .. math::  \max_{\|p - \bar c\| \le R} e^\top \Delta J e = \frac{R^2}{\sigma^2 (d_0^2 - R^2)^2}
     \quad (R < d_0)
@@ -96,10 +95,10 @@ def mass_bound(
     d0 = np.linalg.norm(np.asarray(targets, dtype=np.float64)[:, :2] - centre, axis=1)  # (K,)
     s = np.arange(1, steps + 1)
     reach = speed * dt * s[:, None] + offsets[None, :]  # (T, A)
-    radius_sq = reach[None] ** 2  # (1, T, A)
-    gap = d0[:, None, None] ** 2 - radius_sq  # (K, T, A): d0^2 - R^2, > 0 while outside
+    reach_sq = reach[None] ** 2  # (1, T, A)
+    gap = d0[:, None, None] ** 2 - reach_sq  # (K, T, A): d0^2 - R^2, > 0 while outside
     with np.errstate(divide="ignore", invalid="ignore"):
-        per = radius_sq / (sigma**2 * gap**2)
+        per = reach_sq / (sigma**2 * gap**2)
     per = np.where(gap > 0.0, per, np.inf)
     info = np.cumsum(per.sum(axis=2), axis=1)  # (K, T): bound on e^T J_t e
     bound = np.concatenate([np.zeros((d0.size, 1)), erf(radius * np.sqrt(info / 2.0))], axis=1)
