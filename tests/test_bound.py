@@ -15,7 +15,7 @@ from infoseek.experiments.bound import (
     time_to_localise_bound,
     trials_beating_the_bound,
 )
-from infoseek.experiments.plot import mass_curves
+from infoseek.experiments.plot import masses_by_trial
 from infoseek.experiments.store import read_records
 
 FIG1_STORE = Path(__file__).resolve().parents[1] / "experiments" / "results" / "fig1" / "store"
@@ -103,13 +103,24 @@ def test_trials_beating_their_bound_and_the_headroom_left() -> None:
 
 
 def test_no_stored_fig1_curve_crosses_the_bound() -> None:
+    """Each stored group's mean mass curve against the mean bound of the same trials (the
+    receding-horizon groups hold a prefix of the trials). A belief of N equally weighted
+    particles cannot hold less than 1/N outside the disk: it reports 1.0 where the bound is
+    1 - 3e-8, so the curve may exceed the bound by at most 1/N."""
     records = read_records(FIG1_STORE)
     bounds = store_mass_bounds(records, {}, 60)
-    curves = mass_curves(records)
-    assert {n for _, n in curves} == set(bounds)
-    for (planner, n_agents), matrix in curves.items():
-        mean_curve = np.nanmean(matrix, axis=0)
-        limit = bounds[n_agents].mean(axis=0)
+    trials: dict[int, list[int]] = {}
+    for record in records:
+        trials.setdefault(int(record["n_agents"]), []).append(int(record["trial"]))
+    groups = {(record["planner"], int(record["n_agents"])) for record in records}
+    assert {n for _, n in groups} == set(bounds)
+    resolution = 1.0 / 2000  # bearings_v0's default n_particles, which the store ran with
+    for planner, n_agents in sorted(groups):
+        masses = masses_by_trial(records, planner, n_agents, 61)
+        order = sorted(set(trials[n_agents]))
+        rows = [order.index(k) for k in sorted(masses)]
+        mean_curve = np.nanmean([masses[k] for k in sorted(masses)], axis=0)
+        limit = bounds[n_agents][rows].mean(axis=0)
         # step 0 is the uniform prior: its sampled disk mass scatters around pi / 1600
         assert mean_curve[0] == pytest.approx(limit[0], abs=2e-4)
-        assert np.all(mean_curve[1:] <= limit[1:]), (planner, n_agents)
+        assert np.all(mean_curve[1:] <= limit[1:] + resolution), (planner, n_agents)
