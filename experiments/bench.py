@@ -575,6 +575,12 @@ def _die_with_parent(parent: int) -> None:
 def _processes(
     specs: Sequence[TrialSpec], workers: int
 ) -> Iterator[tuple[TrialSpec, dict[str, Any]]]:
+    """Trials on a pool of ``workers`` processes. If the caller stops early (Ctrl-C, a failed
+    trial, the generator closed), the pool's workers are terminated: ``shutdown`` only cancels
+    the trials not yet started, and the running ones would keep this process waiting at exit
+    until they finish."""
+    others = set(multiprocessing.active_children())
+    finished = False
     with single_threaded_workers():
         executor = ProcessPoolExecutor(
             max_workers=workers,
@@ -596,8 +602,23 @@ def _processes(
                 except Exception as error:
                     raise TrialFailedError(f"{_describe(spec)} failed: {error!r}") from error
                 yield spec, record
+        finished = True
     finally:
         executor.shutdown(wait=False, cancel_futures=True)
+        if not finished:
+            _terminate(set(multiprocessing.active_children()) - others)
+
+
+def _terminate(processes: Iterable[multiprocessing.process.BaseProcess]) -> None:
+    """Terminate ``processes`` (SIGTERM, then SIGKILL after 5 s) and reap them."""
+    processes = list(processes)
+    for process in processes:
+        process.terminate()
+    for process in processes:
+        process.join(timeout=5.0)
+        if process.is_alive():
+            process.kill()
+            process.join()
 
 
 def _ray(

@@ -358,6 +358,29 @@ def test_process_backend_gives_identical_records(
     assert deterministic(read_records(tmp_path)) == reference
 
 
+def test_process_backend_stopped_early_leaves_no_workers_running() -> None:
+    """Closing the trial stream after the first record (what Ctrl-C or a failed trial does)
+    terminates the pool's workers at once, instead of leaving a ~20 s receding-horizon trial
+    running in a worker that the process would wait for at exit."""
+    import multiprocessing
+
+    plan = BenchPlan(
+        env="bearings_v0",
+        env_kwargs={},
+        steps=60,
+        seed=7,
+        groups=[("random", 1), ("horizon", 4)],
+        trials=1,
+    )
+    before = set(multiprocessing.active_children())
+    stream = bench.execute(plan.specs(), backend="process", workers=2)
+    spec, _ = next(stream)
+    assert spec.planner == "random"  # the horizon trial is still running in the other worker
+    assert len(set(multiprocessing.active_children()) - before) == 2
+    stream.close()
+    assert set(multiprocessing.active_children()) - before == set()
+
+
 @pytest.mark.ray
 def test_ray_backend_gives_identical_records(
     tmp_path: Path, reference: dict[str, dict[str, Any]]
