@@ -15,6 +15,7 @@ engine has one, and the machine (CPU model, logical cores, Python, NumPy and the
 * ``plan_pairwise_4``, ``plan_horizon_4``: ``PairwiseNodePlanner`` and
   ``RecedingHorizonPlanner`` (its defaults: ``H = 5``, 45 sequences, 128 planning particles)
   for 4 airplanes on ``bearings_v0``, the Fig. 1 setting (target: 1 s per decision);
+  ``plan_horizon_10`` the same for 10 airplanes;
 * ``*_first_step``: the first ``act`` of an episode (uniform prior), one per seeded episode;
 * ``decision_pairwise_4_uniform``: one coordinated decision of 4 bearing sensors at the uniform
   prior (N = 2000, 8 candidate positions per sensor on a circle of radius 1, eq. 22 with the
@@ -60,6 +61,8 @@ TARGETS: dict[str, float | None] = {
     "plan_pairwise_4": None,
     "plan_horizon_4": 1000.0,
     "plan_horizon_4_first_step": 1000.0,
+    "plan_horizon_10": None,
+    "plan_horizon_10_first_step": None,
     "decision_pairwise_4_uniform": 10.0,
     "env_step_bearings_4": None,
     "env_step_beacon_4": None,
@@ -76,6 +79,7 @@ _PLANNING = {
     "plan_pairwise_beacon_4": ("pairwise", "beacon_v0", 4),
     "plan_pairwise_4": ("pairwise", "bearings_v0", 4),
     "plan_horizon_4": ("horizon", "bearings_v0", 4),
+    "plan_horizon_10": ("horizon", "bearings_v0", 10),
 }
 
 
