@@ -328,6 +328,47 @@ def _print_bound(
     return bound_times(records, bounds)
 
 
+def _read_baseline(
+    args: argparse.Namespace, config: Mapping[str, Any]
+) -> list[dict[str, Any]] | None:
+    """The records of ``--baseline``, checked to pair with ``config`` (same env, seed, steps)."""
+    if getattr(args, "baseline", None) is None:
+        return None
+    check_results_directory(args.baseline)
+    other = read_manifest(args.baseline)["config"]
+    mine = (config["env"], config["seed"], config["steps"])
+    if (other["env"], other["seed"], other["steps"]) != mine:
+        raise ValueError(
+            f"--baseline {args.baseline}: env/seed/steps {other['env']}/{other['seed']}/"
+            f"{other['steps']} differ from {mine[0]}/{mine[1]}/{mine[2]}: not paired"
+        )
+    return read_records(args.baseline)
+
+
+def _print_paper_claims(
+    records: Sequence[Mapping[str, Any]],
+    groups: set[tuple[str, int]],
+    steps: int,
+    alpha: float,
+) -> None:
+    """Claim A (pairwise-node faster than single-node at n_v = 4, and at the other fleet sizes
+    both ran) and Claim B (more vehicles localise faster)."""
+    if {("single", 4), ("pairwise", 4)} <= groups:
+        print(_faster(records, "single", "pairwise", 4, steps, alpha, "Claim A"))
+        print(mean_mass_line(records, "single", "pairwise", 4, steps))
+        print(mass_bands(records, [("single", 4), ("pairwise", 4)]))
+    else:
+        print("Claim A: needs groups single/4 and pairwise/4")
+    for n in sorted(n for planner, n in groups if planner == "single" and n != 4):
+        if ("pairwise", n) in groups:
+            print(_faster(records, "single", "pairwise", n, steps, alpha, "  also"))
+    sizes = sorted(n for planner, n in groups if planner == "pairwise")
+    if len(sizes) >= 2:
+        print("\n".join(_claim_b(records, sizes, steps, alpha)))
+    else:
+        print("Claim B: needs pairwise groups with at least two fleet sizes")
+
+
 def run_claims(args: argparse.Namespace) -> int:
     """Print the summary table and the tests of claims A and B; returns the exit code."""
     if not 0.0 < args.alpha < 1.0:
@@ -343,36 +384,11 @@ def run_claims(args: argparse.Namespace) -> int:
         raise ValueError(f"{args.directory}: the store holds no trials")
     steps = int(manifest["config"]["steps"])
     _check_pairing(records)
-    baseline = None
-    if getattr(args, "baseline", None) is not None:
-        check_results_directory(args.baseline)
-        other = read_manifest(args.baseline)["config"]
-        mine = manifest["config"]
-        if (other["env"], other["seed"], other["steps"]) != (mine["env"], mine["seed"], steps):
-            raise ValueError(
-                f"--baseline {args.baseline}: env/seed/steps {other['env']}/{other['seed']}/"
-                f"{other['steps']} differ from {mine['env']}/{mine['seed']}/{steps}: not paired"
-            )
-        baseline = read_records(args.baseline)
+    baseline = _read_baseline(args, manifest["config"])
     print(format_summary(summarise(records, steps), steps))
     print()
     groups = {(r["planner"], int(r["n_agents"])) for r in records}
-
-    if {("single", 4), ("pairwise", 4)} <= groups:
-        print(_faster(records, "single", "pairwise", 4, steps, args.alpha, "Claim A"))
-        print(mean_mass_line(records, "single", "pairwise", 4, steps))
-        print(mass_bands(records, [("single", 4), ("pairwise", 4)]))
-    else:
-        print("Claim A: needs groups single/4 and pairwise/4")
-    for n in sorted(n for planner, n in groups if planner == "single" and n != 4):
-        if ("pairwise", n) in groups:
-            print(_faster(records, "single", "pairwise", n, steps, args.alpha, "  also"))
-
-    sizes = sorted(n for planner, n in groups if planner == "pairwise")
-    if len(sizes) >= 2:
-        print("\n".join(_claim_b(records, sizes, steps, args.alpha)))
-    else:
-        print("Claim B: needs pairwise groups with at least two fleet sizes")
+    _print_paper_claims(records, groups, steps, args.alpha)
     for n in sorted(n for planner, n in groups if planner == "horizon"):
         if ("pairwise", n) in groups:
             print(_faster(records, "pairwise", "horizon", n, steps, args.alpha, "Horizon"))
