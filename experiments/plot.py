@@ -192,6 +192,22 @@ _PANEL_TITLES = {
 }
 
 
+def _draw_bounds(
+    axes: Any, bounds: Mapping[int, np.ndarray], fleets: Sequence[int], black: bool
+) -> None:
+    """The mean clairvoyant bound of each fleet size in ``fleets`` that ``bounds`` holds, dotted
+    (black, or in the colour of the fleet's curve)."""
+    for position, n_agents in enumerate(fleets):
+        if n_agents in bounds:
+            axes.plot(
+                bounds[n_agents].mean(axis=0),
+                linestyle=":",
+                lw=1.0,
+                color="k" if black else f"C{position % 10}",
+                label=f"clairvoyant bound, $n_v = {n_agents}$",
+            )
+
+
 def plot_fig1(
     records: Sequence[Mapping[str, Any]],
     out_stem: str | os.PathLike[str],
@@ -239,16 +255,8 @@ def plot_fig1(
                 label = f"{planner}, $n_v = {n_agents}$ {count}"
                 style, color = "-", f"C{position % 10}"
             _draw_group(axes, matrix, label, linestyle=style, color=color, offset=offset)
-        for position, n_agents in enumerate(sorted({n for _, n in keys})):
-            if bounds is not None and n_agents in bounds and panel in ("a", "b"):
-                color = f"C{position % 10}" if panel == "b" else "k"
-                axes.plot(
-                    bounds[n_agents].mean(axis=0),
-                    linestyle=":",
-                    lw=1.0,
-                    color=color,
-                    label=f"clairvoyant bound, $n_v = {n_agents}$",
-                )
+        if bounds is not None and panel in ("a", "b"):
+            _draw_bounds(axes, bounds, sorted({n for _, n in keys}), black=panel == "a")
         _style(axes, _PANEL_TITLES[panel], radius)
     if title:
         figure.suptitle(title)
