@@ -164,18 +164,23 @@ def describe(bounds: Mapping[int, FloatArray]) -> str:
     return "\n".join(lines) if lines else "  bound: no trials"
 
 
-def bound_times(
-    records: Sequence[Mapping[str, Any]], bounds: Mapping[int, FloatArray]
-) -> dict[int, dict[int, float]]:
-    """Fleet size -> ``{trial: the bound's time to localise}`` (rows of :func:`store_mass_bounds`
-    are every trial of a fleet size once, in trial order)."""
+def bound_rows(records: Sequence[Mapping[str, Any]]) -> dict[int, dict[int, int]]:
+    """Fleet size -> ``{trial: its row in that fleet size's}`` :func:`store_mass_bounds` matrix
+    (every trial of a fleet size once, in trial order)."""
     trials: dict[int, set[int]] = {}
     for record in records:
         trials.setdefault(int(record["n_agents"]), set()).add(int(record["trial"]))
+    return {n: {trial: row for row, trial in enumerate(sorted(t))} for n, t in trials.items()}
+
+
+def bound_times(
+    records: Sequence[Mapping[str, Any]], bounds: Mapping[int, FloatArray]
+) -> dict[int, dict[int, float]]:
+    """Fleet size -> ``{trial: the bound's time to localise}``."""
     times = {}
-    for n_agents, numbers in trials.items():
+    for n_agents, rows in bound_rows(records).items():
         first = time_to_localise_bound(bounds[n_agents])
-        times[n_agents] = {trial: float(first[row]) for row, trial in enumerate(sorted(numbers))}
+        times[n_agents] = {trial: float(first[row]) for trial, row in rows.items()}
     return times
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import multiprocessing
 import os
 import shutil
 import signal
@@ -362,8 +363,6 @@ def test_process_backend_stopped_early_leaves_no_workers_running() -> None:
     """Closing the trial stream after the first record (what Ctrl-C or a failed trial does)
     terminates the pool's workers at once, instead of leaving a ~20 s receding-horizon trial
     running in a worker that the process would wait for at exit."""
-    import multiprocessing
-
     plan = BenchPlan(
         env="bearings_v0",
         env_kwargs={},

@@ -9,6 +9,7 @@ import pytest
 from scipy.special import erf
 
 from infoseek.experiments.bound import (
+    bound_rows,
     headroom,
     mass_bound,
     store_mass_bounds,
@@ -109,18 +110,15 @@ def test_no_stored_fig1_curve_crosses_the_bound() -> None:
     1 - 3e-8, so the curve may exceed the bound by at most 1/N."""
     records = read_records(FIG1_STORE)
     bounds = store_mass_bounds(records, {}, 60)
-    trials: dict[int, list[int]] = {}
-    for record in records:
-        trials.setdefault(int(record["n_agents"]), []).append(int(record["trial"]))
+    rows = bound_rows(records)
     groups = {(record["planner"], int(record["n_agents"])) for record in records}
     assert {n for _, n in groups} == set(bounds)
     resolution = 1.0 / 2000  # bearings_v0's default n_particles, which the store ran with
     for planner, n_agents in sorted(groups):
         masses = masses_by_trial(records, planner, n_agents, 61)
-        order = sorted(set(trials[n_agents]))
-        rows = [order.index(k) for k in sorted(masses)]
-        mean_curve = np.nanmean([masses[k] for k in sorted(masses)], axis=0)
-        limit = bounds[n_agents][rows].mean(axis=0)
+        trials = sorted(masses)
+        mean_curve = np.nanmean([masses[k] for k in trials], axis=0)
+        limit = bounds[n_agents][[rows[n_agents][k] for k in trials]].mean(axis=0)
         # step 0 is the uniform prior: its sampled disk mass scatters around pi / 1600
         assert mean_curve[0] == pytest.approx(limit[0], abs=2e-4)
         assert np.all(mean_curve[1:] <= limit[1:] + resolution), (planner, n_agents)
