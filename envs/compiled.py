@@ -1,0 +1,180 @@
+r"""Compiled kernels: the one place that decides how numba generates code for infoseek.
+
+Every hot path of the filter and of the mutual-information engine is a numba kernel (one pass
+over the particles, loops over rows inside the kernel). They must not make results depend on
+the machine, because stored trials are re-run by ``infoseek verify`` on other machines and the
+planners' decisions depend on the last bits of their utilities (``infoseek.experiments.
+numerics``). Three rules make a kernel's floating-point results the same on every x86-64 CPU:
+
+* **One fixed code-generation target.** Before numba is imported, :func:`configure` sets
+  ``NUMBA_CPU_NAME`` (``haswell`` on x86-64 CPUs with AVX2 and FMA, the same kernels the
+  pinned OpenBLAS uses; ``generic`` elsewhere) instead of the host CPU, so the machine code is
+  the same everywhere and the on-disk cache (``cache=True``) can be shared.
+* **IEEE arithmetic, evaluated as written.** No fast-math (no reassociation, no contraction of
+  ``a * b + c`` into a fused multiply-add, no approximate reciprocals), Intel SVML disabled
+  (``NUMBA_DISABLE_INTEL_SVML=1``), no ``parallel=True`` (a threaded reduction sums in an order
+  that depends on the thread count). Without reassociation the vector width the target allows
+  cannot change a result, which is why a second target (``generic``) reproduces the same bits
+  (``tests/test_cli.py::test_stored_trials_verify_under_another_blas_kernel``).
+* **The C library's transcendentals.** ``math.exp``, ``math.log1p``, ``math.atan2`` ... compile
+  to calls of the C library, which are exactly what NumPy's ufuncs call in the pinned
+  numerical environment (NumPy's SIMD loops switched off), so a kernel reproduces the NumPy
+  expression it replaces bit for bit there.
+
+Where a kernel replaces a NumPy reduction it reduces in NumPy's order: :func:`pairwise_sum` is
+NumPy's pairwise summation of a contiguous float64 array (blocks of 128, eight accumulators),
+sequential sums stay sequential (``cumsum``, ``bincount``, sums over a short leading axis), and
+dot products call the same BLAS routine NumPy calls (numba's ``np.dot`` goes to ``ddot`` /
+``dgemv``). The kernels therefore give the numbers the NumPy code gave, and the stored results
+of earlier versions still verify.
+
+``INFOSEEK_NATIVE_NUMERICS=1`` (as for :mod:`infoseek.experiments.numerics`) leaves numba's
+target to numba (the host CPU); an explicit ``NUMBA_CPU_NAME`` in the environment is respected.
+Compiled code is cached on disk next to the sources (or in numba's user cache directory when
+that is not writable), so only the first run after an install pays the compilation.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import sys
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+__all__ = ["KERNEL_OPTIONS", "configure", "describe", "kernel", "pairwise_sum"]
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+#: Options of every kernel: cached on disk, IEEE arithmetic, NumPy's error model (``x / 0`` is
+#: ``inf`` or ``nan`` as in NumPy, not an exception), the GIL released.
+KERNEL_OPTIONS: dict[str, Any] = {
+    "cache": True,
+    "fastmath": False,
+    "nogil": True,
+    "error_model": "numpy",
+    "boundscheck": False,
+}
+
+
+def _fixed_cpu_name() -> str:
+    """``haswell`` on x86-64 Linux CPUs with AVX2 and FMA, ``generic`` elsewhere."""
+    if sys.platform != "linux" or platform.machine() not in ("x86_64", "AMD64"):
+        return "generic"
+    try:
+        with open("/proc/cpuinfo") as cpuinfo:
+            for line in cpuinfo:
+                if line.startswith("flags"):
+                    flags = set(line.split(":", 1)[1].split())
+                    return "haswell" if {"avx2", "fma"} <= flags else "generic"
+    except OSError:
+        pass
+    return "generic"
+
+
+def configure() -> None:
+    """Set numba's code generation as the module docstring describes (idempotent).
+
+    Must run before numba is imported to take effect through the environment; if numba is
+    already loaded, its configuration object is updated instead (effective for kernels not yet
+    compiled).
+    """
+    os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")
+    if os.environ.get("INFOSEEK_NATIVE_NUMERICS") != "1":
+        os.environ.setdefault("NUMBA_CPU_NAME", _fixed_cpu_name())
+    if "numba" in sys.modules:
+        from numba.core import config
+
+        config.DISABLE_INTEL_SVML = os.environ["NUMBA_DISABLE_INTEL_SVML"] == "1"
+        if "NUMBA_CPU_NAME" in os.environ:
+            config.CPU_NAME = os.environ["NUMBA_CPU_NAME"]
+
+
+configure()
+
+import numba  # noqa: E402  (after configure: numba reads its settings on import)
+import numpy as np  # noqa: E402
+
+
+def kernel(function: F) -> F:
+    """Compile ``function`` with :data:`KERNEL_OPTIONS` (lazily, on its first call)."""
+    return numba.njit(**KERNEL_OPTIONS)(function)  # type: ignore[no-any-return]
+
+
+def describe() -> dict[str, Any]:
+    """numba's version and code-generation settings in effect (for a store's manifest)."""
+    from numba.core import config
+
+    return {
+        "numba": numba.__version__,
+        "cpu_name": config.CPU_NAME or "host",
+        "cpu_features": config.CPU_FEATURES or "",
+        "svml": not config.DISABLE_INTEL_SVML,
+        "fastmath": KERNEL_OPTIONS["fastmath"],
+    }
+
+
+@kernel
+def _block_sum(values: Any, start: int, count: int) -> float:
+    """NumPy's sum of ``count <= 128`` values from ``start`` (the leaves of the pairwise tree)."""
+    if count < 8:
+        total = 0.0
+        for i in range(start, start + count):
+            total += values[i]
+        return total
+    r0, r1, r2, r3 = values[start], values[start + 1], values[start + 2], values[start + 3]
+    r4, r5, r6, r7 = values[start + 4], values[start + 5], values[start + 6], values[start + 7]
+    i = start + 8
+    stop = start + count - count % 8
+    while i < stop:
+        r0 += values[i]
+        r1 += values[i + 1]
+        r2 += values[i + 2]
+        r3 += values[i + 3]
+        r4 += values[i + 4]
+        r5 += values[i + 5]
+        r6 += values[i + 6]
+        r7 += values[i + 7]
+        i += 8
+    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < start + count:
+        total += values[i]
+        i += 1
+    return total
+
+
+@kernel
+def pairwise_sum(values: Any) -> float:
+    """``numpy.sum`` of a contiguous 1-D float64 array, bit for bit.
+
+    NumPy's pairwise summation: blocks of at most 128 values are summed by :func:`_block_sum`
+    (sequentially below 8 values, with eight interleaved accumulators otherwise); a longer
+    range splits into halves rounded down to a multiple of 8 and returns ``left + right``. The
+    tree is walked here with explicit stacks (numba cannot cache recursive functions).
+    """
+    count = values.shape[0]
+    if count <= 128:
+        return _block_sum(values, 0, count)
+    # pending nodes (start, count; count < 0 marks "add the two partial sums on top")
+    node_start = np.empty(128, dtype=np.int64)
+    node_count = np.empty(128, dtype=np.int64)
+    partial = np.empty(64, dtype=np.float64)
+    nodes, sums = 1, 0
+    node_start[0], node_count[0] = 0, count
+    while nodes:
+        nodes -= 1
+        start, size = node_start[nodes], node_count[nodes]
+        if size < 0:
+            sums -= 1
+            partial[sums - 1] = partial[sums - 1] + partial[sums]
+        elif size <= 128:
+            partial[sums] = _block_sum(values, start, size)
+            sums += 1
+        else:
+            half = size // 2
+            half -= half % 8
+            node_start[nodes], node_count[nodes] = 0, -1
+            node_start[nodes + 1], node_count[nodes + 1] = start + half, size - half
+            node_start[nodes + 2], node_count[nodes + 2] = start, half
+            nodes += 3
+    return partial[0]
