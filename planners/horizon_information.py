@@ -25,7 +25,9 @@ the two noise-free predictions only, with :math:`\rho(\delta) = \int \sqrt{f(r) 
 on others) and evaluates :math:`\log \rho` of every particle pair at a pose as one
 ``(N, N)`` table lookup, so a set of ``K`` observations costs ``K N^2`` lookups plus one
 ``N^2`` log-sum-exp, whatever ``K``: the cost is quadratic in the planning particles and
-linear in the number of observations.
+linear in the number of observations. The lookups, their sums over a sequence of poses and the
+log-sum-exp run as compiled kernels (:mod:`~infoseek.planners.horizon_kernels`) that give the
+bits of the NumPy expressions they replace.
 """
 
 from __future__ import annotations
@@ -35,6 +37,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from infoseek.planners import horizon_kernels as kernels
 
 FloatArray = NDArray[np.float64]
 
@@ -70,6 +74,9 @@ class HorizonInformation:
         self.periodic = bool(sensor.domain.periodic[0])
         self.period = high - low
         self._delta0, self._step, self._table = self._tabulate(low, high)
+        self._affinity = kernels.AffinityTable(
+            self._table, self._delta0, self._step, self.period if self.periodic else None
+        )
 
     def _tabulate(self, low: float, high: float) -> tuple[float, float, FloatArray]:
         """``(first delta, spacing, log rho table)`` of the noise's Bhattacharyya coefficient."""
@@ -96,28 +103,43 @@ class HorizonInformation:
         return delta0, step, table
 
     def log_affinity(self, delta: FloatArray) -> FloatArray:
-        """``log rho(delta)`` (linear interpolation in the table; 0 at ``delta = 0``)."""
-        if self.periodic:
-            delta = np.mod(delta + 0.5 * self.period, self.period) - 0.5 * self.period
-        position = (delta - self._delta0) / self._step
-        last = self._table.size - 1
-        np.clip(position, 0.0, last - 1e-9, out=position)
-        index = position.astype(np.intp)
-        position -= index
-        low = self._table[index]
-        return low + position * (self._table[index + 1] - low)
+        """``log rho(delta)`` (linear interpolation in the table; 0 at ``delta = 0``).
+
+        Args:
+            delta: Float64 differences of predictions, any shape, finite.
+        """
+        return kernels.log_affinity(delta, self._affinity)
+
+    def _predictions(self, particles: FloatArray, poses: FloatArray) -> FloatArray:
+        """``(..., N)`` noise-free predictions of every particle at ``(..., pose_dim)`` poses."""
+        return np.asarray(self.sensor.predict(poses, particles), dtype=np.float64)[..., 0]
 
     def pose_terms(self, particles: FloatArray, poses: FloatArray) -> FloatArray:
         """``(P, N, N)`` ``log rho`` of every particle pair for each of ``(P, pose_dim)``
         poses (the summands of ``-D_B``)."""
-        predictions = np.asarray(self.sensor.predict(poses, particles), dtype=np.float64)[..., 0]
-        return self.log_affinity(predictions[:, :, None] - predictions[:, None, :])
+        predictions = self._predictions(particles, poses)
+        return kernels.pair_term_sums(predictions[:, None, :], self._affinity)
+
+    def pose_term_sums(self, particles: FloatArray, poses: FloatArray) -> FloatArray:
+        """``(G, N, N)`` pair terms summed over each group of ``(G, H, pose_dim)`` poses:
+        ``pose_terms(particles, poses[g]).sum(axis=0)`` bit for bit, without the
+        ``(G, H, N, N)`` terms (a sequence's ``H`` observations)."""
+        return kernels.pair_term_sums(self._predictions(particles, poses), self._affinity)
 
     @staticmethod
     def value(log_rho: FloatArray, weights: FloatArray) -> FloatArray:
         """The bound ``-sum_n w_n log sum_m w_m exp(log_rho[..., n, m])`` of every leading
         index of ``(..., N, N)`` summed pair terms (nats)."""
-        shifted = log_rho + np.log(weights)[None, :]
-        top = shifted.max(axis=-1, keepdims=True)
-        inner = np.log(np.exp(shifted - top).sum(axis=-1)) + top[..., 0]
-        return -(inner @ weights)
+        log_rho = np.asarray(log_rho, dtype=np.float64)
+        n = log_rho.shape[-1]
+        empty = np.empty((0, n, n))
+        rows = kernels.bound_rows(log_rho.reshape(-1, n, n), empty, np.log(weights))
+        return -(rows.reshape(log_rho.shape[:-1]) @ weights)
+
+    @staticmethod
+    def bound(own: FloatArray, partners: FloatArray, weights: FloatArray) -> FloatArray:
+        """``(C,)`` :meth:`value` of ``own[c] + partners[0] + partners[1] + ...`` (summed in
+        that order) for ``(C, N, N)`` ``own`` and ``(K, N, N)`` ``partners``, without forming
+        the sums."""
+        rows = kernels.bound_rows(own, partners, np.log(weights))
+        return -(rows @ weights)

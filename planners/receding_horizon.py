@@ -128,29 +128,31 @@ class RecedingHorizonPlanner(Planner):
         beliefs = planning_beliefs(agents, infos, self.config.n_planning, self.rng)
         tic = time.perf_counter()
         own = [
-            self.information.pose_terms(b.particles, tracks[i].reshape(-1, 2))
-            .reshape(n_seq, horizon, b.weights.size, b.weights.size)
-            .sum(axis=1)
-            for i, b in enumerate(beliefs)
+            self.information.pose_term_sums(b.particles, tracks[i]) for i, b in enumerate(beliefs)
         ]
         partner_terms: list[dict[tuple[int, int], FloatArray]] = [{} for _ in agents]
 
         def utility(i: int, plans: NDArray[np.int64]) -> FloatArray:
             tic = time.perf_counter()
-            total = own[i]
-            for j in range(n_vehicles):
-                if j == i:
-                    continue
-                key = (j, int(plans[j]))
-                if key not in partner_terms[i]:
-                    terms = self.information.pose_terms(beliefs[i].particles, tracks[j, key[1]])
-                    partner_terms[i][key] = terms.sum(axis=0)
-                total = total + partner_terms[i][key]
-            value = self.information.value(total, beliefs[i].weights)
+            cache = partner_terms[i]
+            keys = [(j, int(plans[j])) for j in range(n_vehicles) if j != i]
+            for key in keys:
+                if key not in cache:
+                    poses = tracks[key[0], key[1]][None]
+                    cache[key] = self.information.pose_term_sums(beliefs[i].particles, poses)[0]
+            partners = (
+                np.stack([cache[key] for key in keys])
+                if keys
+                else np.empty((0,) + own[i].shape[1:])
+            )
+            value = self.information.bound(own[i], partners, beliefs[i].weights)
             seconds.append(time.perf_counter() - tic)
             return value
 
-        alone = [self.information.value(own[i], b.weights) for i, b in enumerate(beliefs)]
+        no_partner = np.empty((0,) + own[0].shape[1:])
+        alone = [
+            self.information.bound(own[i], no_partner, b.weights) for i, b in enumerate(beliefs)
+        ]
         seconds = [time.perf_counter() - tic]  # the information work; each utility call adds
         flat = self.sequences.reshape(n_seq, -1)
         result = coordinate(
