@@ -34,8 +34,16 @@ from infoseek.envs.entropy import (
     grid_cell_index,
 )
 from infoseek.envs.history import ObservationHistory
+from infoseek.envs.log_weights import (
+    DEGENERATE_LOG_EVIDENCE,
+    bayes_step,
+    ess_rows,
+    logsumexp_rows,
+    normalised,
+)
 from infoseek.envs.resampling import systematic_resample, systematic_resample_rows
-from infoseek.envs.targets import StationaryTarget, TargetMotion, TargetSpace, reflect_into_interval
+from infoseek.envs.roughening import coordinate_ranges, jitter
+from infoseek.envs.targets import StationaryTarget, TargetMotion, TargetSpace
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -55,8 +63,6 @@ __all__ = [
 
 #: Progressive-correction floor of a belief of a stationary target (``tempering_ess=None``).
 DEFAULT_TEMPERING_ESS = 0.1
-#: Log evidence below which an update counts as degenerate (exp underflows in float64).
-DEGENERATE_LOG_EVIDENCE = -700.0
 #: Roughening spread floor, as a fraction of each coordinate's domain width.
 SPREAD_FLOOR = 1e-3
 #: Bisection steps for a tempering exponent (on ``log lambda`` over 60 nats below the remainder).
@@ -71,46 +77,14 @@ TEMPERING_MOVE_SHRINK = 0.3
 _LOG_MIN_LAMBDA = -60.0
 
 
-def logsumexp_rows(values: FloatArray) -> FloatArray:
-    """``(K,)`` ``log sum_n exp(values[k, n])`` of ``(K, N)`` values, computed per row as
-    ``max + log(sum(exp(values - max)))`` (``-inf`` for a row of ``-inf``, ``+inf`` if any)."""
-    peak = values.max(axis=1)
-    finite = np.isfinite(peak)
-    shift = np.where(finite, peak, 0.0)
-    with np.errstate(invalid="ignore"):
-        sums = np.exp(values - shift[:, None]).sum(axis=1)
-    out = peak.copy()
-    for k in np.flatnonzero(finite):  # math.log, as the scalar log evidence always used
-        out[k] = peak[k] + math.log(float(sums[k]))
-    return out
-
-
 def _logsumexp(values: FloatArray) -> float:
     return float(logsumexp_rows(values[None])[0])
 
 
-def _log_ess_rows(log_weights: FloatArray) -> FloatArray:
-    """``(K,)`` ``log ESS`` of unnormalised ``(K, N)`` log-weights."""
-    return 2.0 * logsumexp_rows(log_weights) - logsumexp_rows(2.0 * log_weights)
-
-
-def _log_ess_of_rows(log_weights: FloatArray) -> FloatArray:
-    """:func:`_log_ess_rows`, computed once for all rows of equal weights (after resampling
-    every row is ``-log N`` throughout, and equal rows give equal results)."""
-    uniform = np.all(log_weights == log_weights[:, :1], axis=1)
-    out = np.empty(log_weights.shape[0])
-    values = log_weights[uniform, 0]
-    for value in np.unique(values):
-        first = np.flatnonzero(uniform & (log_weights[:, 0] == value))
-        out[first] = _log_ess_rows(log_weights[first[:1]])[0]
-    rest = np.flatnonzero(~uniform)
-    if rest.size:
-        out[rest] = _log_ess_rows(log_weights[rest])
-    return out
-
-
 def _log_ess(log_weights: FloatArray) -> float:
-    return float(_log_ess_rows(log_weights[None])[0])
+    """``log ESS`` of unnormalised ``(N,)`` log-weights."""
+    rows = log_weights[None]
+    return float(2.0 * logsumexp_rows(rows)[0] - logsumexp_rows(2.0 * rows)[0])
 
 
 @dataclass(frozen=True)
@@ -230,8 +204,7 @@ class BeliefBatch:
         self, log_weights: FloatArray, rows: NDArray[np.intp] | None = None
     ) -> None:
         """Store normalised ``(K, N)`` log-weights (or those of ``rows``) and their weights."""
-        weights = np.exp(log_weights)
-        weights /= weights.sum(axis=1, keepdims=True)
+        weights = normalised(log_weights)
         if rows is None or self._all_rows(rows):
             self.log_weights, self.weights = log_weights, weights
             return
@@ -263,8 +236,7 @@ class BeliefBatch:
 
     def ess(self, rows: NDArray[np.intp] | None = None) -> FloatArray:
         """``(K,)`` effective sample sizes ``1 / sum w^2`` (of ``rows`` only, if given)."""
-        weights = self.weights if rows is None else self.weights[rows]
-        return np.array([1.0 / np.dot(w, w) for w in weights])
+        return ess_rows(self.weights if rows is None else self.weights[rows])
 
     # ------------------------------------------------------------------ filter cycle
     def predict(self, dt: float) -> None:
@@ -291,12 +263,18 @@ class BeliefBatch:
         """``(K, N)`` summed log-likelihood of the observations each belief received.
 
         Args:
-            sensor: The likelihood model (``log_likelihood(z, poses, particles)``).
+            sensor: The likelihood model (``log_likelihood(z, poses, particles)``; its
+                compiled ``summed_log_likelihood`` with these arguments where it has one).
             z: ``(G, M, obs_dim)`` observations of ``G`` groups; belief ``k`` belongs to group
                 ``k // (K / G)`` (every agent of one environment is one group).
             poses: ``(G, M, pose_dim)`` sensor poses.
             received: ``(K, M)`` which of its group's observations each belief received.
         """
+        compiled = getattr(sensor, "summed_log_likelihood", None)
+        if compiled is not None:
+            total = compiled(z, poses, self.particles, received)
+            if total is not None:
+                return _checked_total(sensor, total)
         k_rows, n, d = self.particles.shape
         groups, m = z.shape[0], z.shape[1]
         per = k_rows // groups
@@ -329,20 +307,19 @@ class BeliefBatch:
         if live.size == 0:
             return result
         loglik = self.log_likelihoods(sensor, z, poses, received)
-        full = self.log_weights + loglik
-        with np.errstate(invalid="ignore"):  # rows of -inf evidence go to the row path
-            log_z = logsumexp_rows(full)
-            accept = np.isfinite(log_z) & (log_z >= DEGENERATE_LOG_EVIDENCE) & (counts > 0)
-            if self._tempering_on() and self.max_tempering_stages > 1:
-                log_floor = math.log(self.tempering_ess) + _log_ess_of_rows(self.log_weights)
-                accept &= 2.0 * log_z - logsumexp_rows(2.0 * full) >= log_floor
+        tempering = self._tempering_on() and self.max_tempering_stages > 1
+        log_weights, weights, log_z, accept = bayes_step(
+            self.log_weights, loglik, counts > 0, self.tempering_ess if tempering else None
+        )
         plain = np.flatnonzero(accept)
-        new_lw = full - np.where(accept, log_z, 0.0)[:, None]
         special = [int(k) for k in live if not accept[k]]
         if plain.size == k_rows:
-            self.set_log_weights(new_lw)
+            self.log_weights, self.weights = log_weights, weights
         elif plain.size:
-            self.set_log_weights(new_lw[plain], plain)
+            self.log_weights = self.log_weights.copy()
+            self.weights = self.weights.copy()
+            self.log_weights[plain] = log_weights[plain]
+            self.weights[plain] = weights[plain]
         result.log_evidence[plain] = log_z[plain]
         for k in special:  # progressive correction or recovery: that belief alone
             g = k // (k_rows // z.shape[0])
@@ -497,16 +474,9 @@ class BeliefBatch:
             return need
         uniforms = np.array([self.rngs[k].random() for k in rows])
         idx = systematic_resample_rows(self.weights[rows], uniforms)
-        d = self.particles.shape[2]
-        flat_index = (idx + (rows * n)[:, None]) * d
-        values = self.particles.reshape(-1)
-        columns = np.empty((rows.size, d, n))
-        for j in range(d):  # gather column by column into the (R, d, N) layout of roughening
-            columns[:, j] = values[flat_index + j]
+        particles = self.particles[rows[:, None], idx]
         if self.roughening > 0.0:
-            particles = self._roughen_columns(columns, [self.rngs[k] for k in rows], None)
-        else:
-            particles = np.ascontiguousarray(columns.transpose(0, 2, 1))
+            particles = self.roughen(particles, [self.rngs[k] for k in rows])
         self.set_rows(rows, particles, np.full((rows.size, n), -math.log(n)))
         return need
 
@@ -519,19 +489,31 @@ class BeliefBatch:
         """Gordon roughening of ``(R, N, d)`` equally weighted particle sets, row ``r`` drawing
         from ``rngs[r]`` (see :mod:`infoseek.envs.belief`). With ``move_scale`` the jitter is a
         tempering-move proposal: ``move_scale`` times each coordinate's standard deviation."""
-        columns = np.ascontiguousarray(particles.transpose(0, 2, 1))  # (R, d, N)
-        return self._roughen_columns(columns, rngs, move_scale)
-
-    def _roughen_columns(
-        self,
-        columns: FloatArray,
-        rngs: Sequence[np.random.Generator],
-        move_scale: float | None,
-    ) -> FloatArray:
-        """:meth:`roughen` of particles given as ``(R, d, N)`` columns; returns ``(R, N, d)``."""
         space = self.space
-        r_rows, d, n = columns.shape
-        idx, low, period, harmonic = _angle_scale(space)
+        r_rows, n, d = particles.shape
+        idx, _, period, harmonic = _angle_scale(space)
+        if move_scale is None and not idx.size:
+            spread = coordinate_ranges(particles)
+        else:
+            spread = self._spread(np.ascontiguousarray(particles.transpose(0, 2, 1)), move_scale)
+        width = space.high_array - space.low_array
+        if move_scale is None:
+            # floor: a fully collapsed set (spread 0) would otherwise never be separated again
+            spread = np.maximum(spread, SPREAD_FLOOR * width)
+            std = self.roughening * spread * n ** (-1.0 / d)
+        else:
+            std = move_scale * np.maximum(spread, 1e-12 * width)
+        noise = np.empty((r_rows, n, d))
+        for row, rng in enumerate(rngs):
+            rng.standard_normal(out=noise[row])
+        return jitter(particles, noise, std, space.low_array, space.high_array, space.periodic_mask)
+
+    def _spread(self, columns: FloatArray, move_scale: float | None) -> FloatArray:
+        """``(R, d)`` spread of particles given as ``(R, d, N)`` columns: each coordinate's range
+        (``move_scale`` ``None``) or standard deviation, periodic ones about their circular mean."""
+        space = self.space
+        idx, _, period, harmonic = _angle_scale(space)
+        n = columns.shape[2]
         if move_scale is None:
             spread = columns.max(axis=2) - columns.min(axis=2)
         else:
@@ -547,30 +529,7 @@ class BeliefBatch:
                 spread[:, idx] = resid.max(axis=2) - resid.min(axis=2)
             else:
                 spread[:, idx] = resid.std(axis=2)
-        width = space.high_array - space.low_array
-        if move_scale is None:
-            # floor: a fully collapsed set (spread 0) would otherwise never be separated again
-            spread = np.maximum(spread, SPREAD_FLOOR * width)
-            std = self.roughening * spread * n ** (-1.0 / d)
-        else:
-            std = move_scale * np.maximum(spread, 1e-12 * width)
-        noise = np.empty((r_rows, n, d))
-        for row, rng in enumerate(rngs):
-            rng.standard_normal(out=noise[row])
-        result = noise  # jittered in place, column by column (numpy is slow on (N, d) rows)
-        low_all, high_all = space.low_array, space.high_array
-        for j in range(d):
-            column = result[:, :, j]
-            column *= std[:, j : j + 1]
-            column += columns[:, j]
-            if space.periodic_mask[j]:
-                continue
-            out = (column < low_all[j]) | (column > high_all[j])
-            if out.any():
-                column[out] = reflect_into_interval(column[out], low_all[j], high_all[j])
-        if idx.size:
-            result = space.wrap(result)
-        return result
+        return spread
 
     # ------------------------------------------------------------------ estimates
     # Each takes ``rows`` (default all beliefs) and returns one entry per row.

@@ -19,6 +19,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from infoseek.envs.compiled import kernel, pairwise_sum
+
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
@@ -95,11 +97,34 @@ def systematic_resample(
     return _invert_cdf(w, points)
 
 
+@kernel
+def _systematic_rows(weights: FloatArray, uniforms: FloatArray) -> IntArray:
+    k_rows, n = weights.shape
+    idx = np.empty((k_rows, n), dtype=np.int64)
+    cdf = np.empty(n)
+    for k in range(k_rows):
+        total = pairwise_sum(weights[k])
+        running = 0.0
+        for i in range(n):
+            running += weights[k, i] / total
+            cdf[i] = running
+        cdf[n - 1] = 1.0  # guard against round-off leaving the last point beyond the total
+        j = 0
+        for i in range(n):
+            point = (uniforms[k] + i) / n
+            while j < n and cdf[j] <= point:  # searchsorted(side="right") of sorted points
+                j += 1
+            idx[k, i] = min(j, n - 1)
+    return idx
+
+
 def systematic_resample_rows(weights: FloatArray, uniforms: FloatArray) -> IntArray:
     """Systematic resampling of ``K`` weight vectors at once, one shared uniform per row.
 
     Row ``k`` is exactly :func:`systematic_resample` of ``weights[k]`` with ``rng.random()``
-    returning ``uniforms[k]`` (same arithmetic, row by row).
+    returning ``uniforms[k]`` (the same arithmetic in one compiled pass per row: the
+    normalisation, the running sum of the cumulative weights and a merge of the sorted points
+    into them).
 
     Args:
         weights: ``(K, N)`` non-negative weights with positive row sums (normalised here).
@@ -108,19 +133,12 @@ def systematic_resample_rows(weights: FloatArray, uniforms: FloatArray) -> IntAr
     Returns:
         ``(K, N)`` int64 ancestor indices, each row sorted ascending.
     """
-    w = np.asarray(weights, dtype=np.float64)
+    w = np.ascontiguousarray(weights, dtype=np.float64)
     if w.ndim != 2 or w.shape[1] == 0 or np.shape(uniforms) != (w.shape[0],):
         raise ValueError(
             f"weights must be (K, N) and uniforms (K,), got {w.shape} and {np.shape(uniforms)}"
         )
-    n = w.shape[1]
-    cdf = np.cumsum(w / w.sum(axis=1, keepdims=True), axis=1)
-    cdf[:, -1] = 1.0  # guard against round-off leaving the last point beyond the total
-    points = (np.asarray(uniforms, dtype=np.float64)[:, None] + np.arange(n)) / n
-    idx = np.empty(w.shape, dtype=np.int64)
-    for k in range(w.shape[0]):  # numpy has no row-wise searchsorted; one call per row
-        idx[k] = np.searchsorted(cdf[k], points[k], side="right")
-    return np.minimum(idx, n - 1)
+    return _systematic_rows(w, np.ascontiguousarray(uniforms, dtype=np.float64))  # type: ignore[no-any-return]
 
 
 def stratified_resample(

@@ -62,6 +62,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import NDArray
 
 from infoseek.envs.sensors.arrays import (
     LOG_SQRT_2PI,
@@ -78,6 +79,11 @@ from infoseek.envs.sensors.arrays import (
     wrap_into,
 )
 from infoseek.envs.sensors.base import FloatArray, ObservationDomain
+from infoseek.envs.sensors.wrapped_normal import (
+    ImageSum,
+    summed_log_likelihood,
+    wrapped_log_density,
+)
 
 __all__ = ["BearingSensor"]
 
@@ -148,6 +154,9 @@ class BearingSensor:
             n_cdf = max(1, math.ceil(9.0 * self.sigma / TWO_PI))
             self._cdf_shifts = TWO_PI * np.arange(-n_cdf, n_cdf + 1, dtype=np.float64)
         self._log_norm = -math.log(self.sigma) - LOG_SQRT_2PI
+        self._image_sum = (
+            None if self._use_fourier else ImageSum(self.sigma, self._image_terms, self._log_norm)
+        )
 
     def __repr__(self) -> str:
         return f"BearingSensor(sigma={self.sigma!r})"
@@ -200,28 +209,15 @@ class BearingSensor:
         return self._wrapped_log_density(residual[..., 0])
 
     def _wrapped_log_density(self, residual: FloatArray) -> FloatArray:
-        r = np.abs(wrap_into(residual, -math.pi, TWO_PI))
         if self._use_fourier:
+            r = np.abs(wrap_into(residual, -math.pi, TWO_PI))
             cos_terms = np.cos(np.multiply.outer(r, self._fourier_n)) @ self._fourier_coef
             return np.log1p(2.0 * cos_terms) - math.log(TWO_PI)
-        inv_2s2 = 0.5 / self.sigma**2
         # Image at distance a - |r| (a = 2 pi m) has relative exponent -(a^2 - 2 a |r|)/(2 s^2),
-        # the one at a + |r| has -(a^2 + 2 a |r|)/(2 s^2). Exponents are clipped at -700
-        # (relative terms < 1e-304 are irrelevant next to 1) because underflowing exp() into
-        # subnormals is an order of magnitude slower.
-        total: FloatArray | None = None  # the sum of the image terms (0.0 + x is x: start at x)
-        for a, sign in self._image_terms:
-            arg = r * (-sign * 2.0 * a * inv_2s2)
-            arg -= a * a * inv_2s2
-            np.maximum(arg, -700.0, out=arg)
-            term = np.exp(arg, out=arg)
-            total = term if total is None else np.add(total, term, out=total)
-        result = np.log1p(total, out=total) if total is not None else np.zeros_like(r)
-        np.multiply(r, r, out=r)
-        r *= inv_2s2
-        result -= r
-        result += self._log_norm
-        return result
+        # the one at a + |r| has -(a^2 + 2 a |r|)/(2 s^2); compiled in
+        # :mod:`infoseek.envs.sensors.wrapped_normal`.
+        assert self._image_sum is not None
+        return wrapped_log_density(residual, self._image_sum)
 
     def kernel_parameters(
         self, poses: FloatArray, particles: FloatArray
@@ -284,6 +280,34 @@ class BearingSensor:
         check_broadcast(z, poses, owner)
         residual = z[..., 0, None] - self._bearing(poses, particles, wrap=False)
         return self._wrapped_log_density(residual)
+
+    def summed_log_likelihood(
+        self, z: FloatArray, poses: FloatArray, particles: FloatArray, received: NDArray[np.bool_]
+    ) -> FloatArray | None:
+        """The filter's likelihood pass: for every belief, the sum of ``log p(z | theta)`` over
+        the observations it received (compiled; the same numbers as summing
+        :meth:`log_likelihood`).
+
+        Args:
+            z: ``(G, M, 1)`` observations of ``G`` groups (an environment's agents).
+            poses: ``(G, M, 2)`` positions of the sensors that made them.
+            particles: ``(K, N, >= 2)`` particles of ``K`` beliefs; belief ``k`` belongs to
+                group ``k // (K / G)``.
+            received: ``(K, M)`` which of its group's observations each belief received.
+
+        Returns:
+            ``(K, N)`` summed log-likelihoods, or ``None`` for ``sigma >= 2`` (theta series;
+            the caller then sums :meth:`log_likelihood`).
+        """
+        if self._image_sum is None:
+            return None
+        groups = z.shape[0]
+        k_rows, n = particles.shape[0], particles.shape[1]
+        grouped = particles.reshape(groups, (k_rows // groups) * n, particles.shape[2])
+        dx = grouped[:, None, :, 0] - poses[:, :, 0, None]
+        dy = grouped[:, None, :, 1] - poses[:, :, 1, None]
+        bearings = np.arctan2(dy, dx, out=dy)
+        return summed_log_likelihood(bearings, z[..., 0], received, self._image_sum)
 
     def bin_probabilities(
         self, edges: FloatArray, poses: FloatArray, particles: FloatArray

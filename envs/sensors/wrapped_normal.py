@@ -1,0 +1,175 @@
+r"""Compiled wrapped-normal log densities of bearing residuals (the image sum of
+:mod:`infoseek.envs.sensors.bearing`).
+
+For a residual :math:`x` (any real), :math:`r = |\operatorname{wrap}(x)|` with
+:math:`\operatorname{wrap}` into :math:`[-\pi, \pi)` and the image terms
+:math:`(a_t, s_t)` of the sensor (distances :math:`a_t + s_t |r|`),
+
+.. math::
+
+    \log p = \log\Bigl(1 + \sum_t e^{\max(c_{1,t} r - c_{2,t},\, -700)}\Bigr)
+        - \frac{r^2}{2\sigma^2} + \log\frac{1}{\sigma\sqrt{2\pi}},
+    \qquad c_{1,t} = -2 s_t a_t / (2\sigma^2),\ c_{2,t} = a_t^2 / (2\sigma^2).
+
+The clip at ``-700`` keeps ``exp`` out of the subnormals; a clipped term is the constant
+``exp(-700)``, and a sum that is only that constant has the constant ``log1p`` of it, so most
+residuals (those within about ``pi - 1.1`` of zero for ``sigma = 0.1``) need no ``exp`` or
+``log1p`` call at all, with the same result as evaluating them.
+
+:func:`summed_log_likelihood` adds, for every belief, the log densities of the observations it
+received, in observation order (a missing observation adds ``0.0``), from bearings computed by
+the caller; it is the likelihood pass of the filter (:meth:`~infoseek.envs.belief_batch.
+BeliefBatch.log_likelihoods`). Every operation is the one the NumPy form performed, in the same
+order, so the numbers are the same bit for bit in the pinned numerical environment.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from infoseek.envs.compiled import kernel
+
+FloatArray = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
+
+__all__ = ["ImageSum", "summed_log_likelihood", "wrapped_log_density"]
+
+_CLIP = -700.0
+_CLIPPED_TERM = math.exp(_CLIP)
+_LOG1P_CLIPPED_TERM = math.log1p(_CLIPPED_TERM)
+_LOW = -math.pi
+_PERIOD = 2.0 * math.pi
+_INV_PERIOD = 1.0 / _PERIOD
+
+
+class ImageSum:
+    """The constants of a wrapped normal's image sum.
+
+    Args:
+        sigma: Noise standard deviation (radians).
+        image_terms: ``(a, sign)`` of every image term kept (distance ``a + sign |r|``).
+        log_norm: ``-log(sigma sqrt(2 pi))``.
+    """
+
+    def __init__(
+        self, sigma: float, image_terms: list[tuple[float, float]], log_norm: float
+    ) -> None:
+        inv_2s2 = 0.5 / sigma**2
+        self.inv_2s2 = inv_2s2
+        self.slopes = np.array([-sign * 2.0 * a * inv_2s2 for a, sign in image_terms])
+        self.offsets = np.array([a * a * inv_2s2 for a, _ in image_terms])
+        self.log_norm = log_norm
+
+
+@kernel
+def _log_density(
+    residual: float, slopes: FloatArray, offsets: FloatArray, inv_2s2: float, log_norm: float
+) -> float:
+    shifted = residual - _LOW
+    wrapped = shifted - _PERIOD * math.floor(shifted * _INV_PERIOD)
+    if wrapped >= _PERIOD:
+        wrapped -= _PERIOD
+    if wrapped < 0.0:
+        wrapped += _PERIOD
+    r = abs(wrapped + _LOW)
+    total = 0.0
+    for t in range(slopes.shape[0]):
+        arg = r * slopes[t] - offsets[t]
+        term = _CLIPPED_TERM if arg <= _CLIP else math.exp(arg)
+        total = term if t == 0 else total + term
+    if total == _CLIPPED_TERM:
+        result = _LOG1P_CLIPPED_TERM
+    else:
+        result = math.log1p(total)
+    return (result - (r * r) * inv_2s2) + log_norm
+
+
+@kernel
+def _wrapped_log_density(
+    residual: FloatArray, slopes: FloatArray, offsets: FloatArray, inv_2s2: float, log_norm: float
+) -> FloatArray:
+    flat = residual.ravel()
+    out = np.empty(flat.shape[0])
+    for i in range(flat.shape[0]):
+        out[i] = _log_density(flat[i], slopes, offsets, inv_2s2, log_norm)
+    return out.reshape(residual.shape)
+
+
+def wrapped_log_density(residual: FloatArray, image_sum: ImageSum) -> FloatArray:
+    """Log density (module docstring) of every residual.
+
+    Args:
+        residual: Residuals ``z - mu`` of any shape (float64).
+        image_sum: The sensor's image-sum constants.
+
+    Returns:
+        Log densities, the shape of ``residual``.
+    """
+    residual = np.ascontiguousarray(residual, dtype=np.float64)
+    s = image_sum
+    return _wrapped_log_density(residual, s.slopes, s.offsets, s.inv_2s2, s.log_norm)  # type: ignore[no-any-return]
+
+
+@kernel
+def _summed(
+    bearings: FloatArray,
+    z: FloatArray,
+    received: BoolArray,
+    slopes: FloatArray,
+    offsets: FloatArray,
+    inv_2s2: float,
+    log_norm: float,
+) -> FloatArray:
+    groups, m, width = bearings.shape
+    k_rows = received.shape[0]
+    per = k_rows // groups
+    n = width // per
+    total = np.empty((k_rows, n))
+    for k in range(k_rows):
+        g = k // per
+        base = (k - g * per) * n
+        for i in range(n):
+            acc = 0.0
+            for j in range(m):
+                value = 0.0
+                if received[k, j]:
+                    residual = z[g, j] - bearings[g, j, base + i]
+                    value = _log_density(residual, slopes, offsets, inv_2s2, log_norm)
+                acc = value if j == 0 else acc + value
+            total[k, i] = acc
+    return total
+
+
+def summed_log_likelihood(
+    bearings: FloatArray, z: FloatArray, received: BoolArray, image_sum: ImageSum
+) -> FloatArray:
+    """``(K, N)`` summed log-likelihood of the bearings each belief received.
+
+    Args:
+        bearings: ``(G, M, P)`` noise-free bearings (unwrapped ``atan2``) of the ``P = (K / G)
+            * N`` particles of group ``g`` (its beliefs' particles one after the other) seen
+            from the ``M`` poses of that group.
+        z: ``(G, M)`` observed bearings.
+        received: ``(K, M)`` which of its group's observations each belief received.
+        image_sum: The sensor's image-sum constants.
+    """
+    bearings = np.ascontiguousarray(bearings, dtype=np.float64)
+    z = np.ascontiguousarray(z, dtype=np.float64)
+    received = np.ascontiguousarray(received, dtype=np.bool_)
+    groups, m, width = bearings.shape
+    k_rows = received.shape[0]
+    if (
+        z.shape != (groups, m)
+        or received.shape[1] != m
+        or k_rows % groups
+        or width % (k_rows // groups)
+    ):
+        raise ValueError(
+            f"bearings (G, M, P) = {bearings.shape}, z {z.shape} and received {received.shape} "
+            "do not describe G groups of K / G beliefs and M observations"
+        )
+    s = image_sum
+    return _summed(bearings, z, received, s.slopes, s.offsets, s.inv_2s2, s.log_norm)  # type: ignore[no-any-return]

@@ -1,0 +1,176 @@
+"""The filter's compiled kernels against the NumPy expressions they replaced (bit for bit) and
+against independent references (closed forms, brute-force image sums)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.special import logsumexp
+
+from infoseek.envs.log_weights import bayes_step, ess_rows, logsumexp_rows, normalised
+from infoseek.envs.resampling import systematic_resample_rows
+from infoseek.envs.roughening import coordinate_ranges, jitter
+from infoseek.envs.sensors import BearingSensor
+from infoseek.envs.sensors.wrapped_normal import summed_log_likelihood
+from infoseek.envs.targets import reflect_into_interval
+
+
+def _log_weights(rng: np.random.Generator, k: int, n: int) -> np.ndarray:
+    values = rng.normal(0.0, 30.0, size=(k, n))
+    values[rng.random((k, n)) < 0.1] = -np.inf
+    values[:, 0] = rng.normal(0.0, 30.0, size=k)  # every row possible
+    return values
+
+
+#: The C library's exp (Python's math.exp), which the kernels call; NumPy's own SIMD exp (used
+#: outside the pinned numerical environment) can differ in the last bit.
+_libm_exp = np.vectorize(math.exp, otypes=[float])
+
+
+def _numpy_logsumexp_rows(values: np.ndarray) -> np.ndarray:
+    peak = values.max(axis=1)
+    finite = np.isfinite(peak)
+    shift = np.where(finite, peak, 0.0)
+    with np.errstate(invalid="ignore"):
+        sums = _libm_exp(values - shift[:, None]).sum(axis=1)
+    out = peak.copy()
+    for k in np.flatnonzero(finite):
+        out[k] = peak[k] + math.log(float(sums[k]))
+    return out
+
+
+@pytest.mark.parametrize("n", [1, 7, 8, 129, 2000])
+def test_log_weight_kernels_match_their_numpy_forms_and_scipy(n: int) -> None:
+    rng = np.random.default_rng(n)
+    values = _log_weights(rng, 5, n)
+    values[0] = -np.inf  # a row of -inf has normaliser -inf
+    out = logsumexp_rows(values)
+    assert np.array_equal(out, _numpy_logsumexp_rows(values))
+    assert out[0] == -np.inf
+    np.testing.assert_allclose(out[1:], logsumexp(values[1:], axis=1), rtol=1e-13)
+    log_weights = values[1:] - out[1:, None]
+    weights = normalised(log_weights)
+    expected = _libm_exp(log_weights)
+    expected /= expected.sum(axis=1, keepdims=True)
+    assert np.array_equal(weights, expected)
+    assert np.array_equal(ess_rows(weights), np.array([1.0 / np.dot(w, w) for w in weights]))
+
+
+def test_bayes_step_accepts_as_the_progressive_correction_rule_says() -> None:
+    rng = np.random.default_rng(1)
+    k, n, tau = 40, 300, 0.1
+    prior = np.log(rng.dirichlet(np.full(n, 0.5), size=k))
+    prior[:10] = -math.log(n)  # resampled rows
+    loglik = rng.normal(0.0, 1.0, size=(k, n)) * rng.uniform(0.1, 30.0, size=(k, 1))
+    loglik[3] = -np.inf  # impossible observation: never accepted
+    live = rng.random(k) < 0.9
+    log_weights, weights, log_z, accepted = bayes_step(prior, loglik, live, tau)
+    full = prior + loglik
+    expected_z = logsumexp(full, axis=1)
+    np.testing.assert_allclose(log_z[np.isfinite(expected_z)], expected_z[np.isfinite(expected_z)])
+    log_ess = 2.0 * logsumexp(full, axis=1) - logsumexp(2.0 * full, axis=1)
+    prior_log_ess = 2.0 * logsumexp(prior, axis=1) - logsumexp(2.0 * prior, axis=1)
+    margin = log_ess - (math.log(tau) + prior_log_ess)
+    with np.errstate(invalid="ignore"):
+        rule = live & np.isfinite(expected_z) & (expected_z >= -700.0) & (margin >= 0.0)
+    decided = np.abs(np.nan_to_num(margin, nan=1.0)) > 1e-9  # away from round-off ties
+    assert np.array_equal(accepted[decided], rule[decided])
+    assert accepted.any() and not accepted.all()
+    for row in np.flatnonzero(accepted):
+        np.testing.assert_allclose(weights[row], np.exp(full[row] - expected_z[row]), atol=1e-15)
+        assert np.array_equal(weights[row], normalised(log_weights[row][None])[0])
+    _, _, _, untempered = bayes_step(prior, loglik, live, None)
+    with np.errstate(invalid="ignore"):
+        assert np.array_equal(untempered, live & np.isfinite(expected_z) & (expected_z >= -700.0))
+
+
+def test_kernels_name_the_argument_they_reject() -> None:
+    with pytest.raises(TypeError, match="values must be a float64 array"):
+        logsumexp_rows(np.zeros((2, 3), dtype=np.float32))
+    with pytest.raises(ValueError, match=r"log_weights must have shape \(K, N\)"):
+        normalised(np.zeros(3))
+    with pytest.raises(ValueError, match="log_likelihood must have the shape"):
+        bayes_step(np.zeros((2, 3)), np.zeros((2, 4)), np.ones(2, bool), None)
+    with pytest.raises(ValueError, match="live must have shape"):
+        bayes_step(np.zeros((2, 3)), np.zeros((2, 3)), np.ones(3, bool), None)
+    with pytest.raises(ValueError, match="weights must be"):
+        systematic_resample_rows(np.ones((2, 3)), np.zeros(3))
+
+
+def test_systematic_resampling_of_rows_is_searchsorted_of_the_cumulative_weights() -> None:
+    rng = np.random.default_rng(2)
+    for _ in range(50):
+        k, n = int(rng.integers(1, 5)), int(rng.integers(1, 700))
+        weights = rng.gamma(0.3, size=(k, n)) * np.exp(rng.uniform(-30.0, 0.0, (k, n)))
+        weights[:, rng.integers(0, n, size=n // 2)] = 0.0
+        weights[:, 0] += 1e-300
+        uniforms = rng.random(k)
+        cdf = np.cumsum(weights / weights.sum(axis=1, keepdims=True), axis=1)
+        cdf[:, -1] = 1.0
+        points = (uniforms[:, None] + np.arange(n)) / n
+        rows = zip(cdf, points, strict=True)
+        expected = np.stack([np.searchsorted(c, p, side="right") for c, p in rows])
+        assert np.array_equal(
+            systematic_resample_rows(weights, uniforms), np.minimum(expected, n - 1)
+        )
+
+
+def test_jitter_reflects_and_wraps_as_the_target_space_does() -> None:
+    rng = np.random.default_rng(3)
+    low, high = np.array([0.0, -1.0, 0.0]), np.array([40.0, 3.0, math.pi])
+    periodic = np.array([False, False, True])
+    particles = rng.uniform(low, high, size=(4, 500, 3))
+    noise = rng.standard_normal((4, 500, 3))
+    std = rng.uniform(0.0, 30.0, size=(4, 3))
+    out = jitter(particles, noise, std, low, high, periodic)
+    moved = noise * std[:, None, :] + particles
+    expected = moved.copy()
+    for j in (0, 1):
+        column = expected[..., j]
+        outside = (column < low[j]) | (column > high[j])
+        column[outside] = reflect_into_interval(column[outside], low[j], high[j])
+    wrapped = np.mod(moved[..., 2] - low[2], high[2] - low[2])
+    expected[..., 2] = low[2] + np.where(wrapped >= high[2] - low[2], 0.0, wrapped)
+    assert np.array_equal(out, expected)
+    assert np.all((out >= low) & (out <= high))
+    ranges = particles.max(axis=1) - particles.min(axis=1)
+    assert np.array_equal(coordinate_ranges(particles), ranges)
+
+
+def _brute_force_log_density(residual: np.ndarray, sigma: float) -> np.ndarray:
+    """log of the wrapped normal density by summing 41 images (independent of the sensor)."""
+    images = residual[..., None] + 2.0 * math.pi * np.arange(-20, 21)
+    log_terms = -0.5 * (images / sigma) ** 2 - math.log(sigma * math.sqrt(2.0 * math.pi))
+    return logsumexp(log_terms, axis=-1)
+
+
+@pytest.mark.parametrize("sigma", [0.02, 0.1, 0.5, 1.5])
+def test_summed_bearing_likelihood_is_the_sum_of_received_wrapped_normals(sigma: float) -> None:
+    rng = np.random.default_rng(4)
+    groups, per, m, n = 3, 2, 4, 257
+    sensor = BearingSensor(sigma=sigma)
+    particles = rng.uniform(0.0, 40.0, size=(groups * per, n, 2))
+    poses = rng.uniform(0.0, 40.0, size=(groups, m, 2))
+    z = rng.uniform(-math.pi, math.pi, size=(groups, m, 1))
+    z[0, 0, 0] = math.pi  # residuals at and beyond the seam
+    received = rng.random((groups * per, m)) < 0.7
+    total = sensor.summed_log_likelihood(z, poses, particles, received)
+    assert total is not None
+    expected = np.zeros((groups * per, n))
+    for k in range(groups * per):
+        g = k // per
+        dx = particles[k, None, :, 0] - poses[g, :, 0, None]
+        dy = particles[k, None, :, 1] - poses[g, :, 1, None]
+        density = _brute_force_log_density(z[g] - np.arctan2(dy, dx), sigma)
+        expected[k] = np.where(received[k][:, None], density, 0.0).sum(axis=0)
+    np.testing.assert_allclose(total, expected, rtol=1e-12, atol=1e-12)
+    grouped = particles.reshape(groups, per * n, 2)
+    angle = np.arctan2(
+        grouped[:, None, :, 1] - poses[:, :, 1, None], grouped[:, None, :, 0] - poses[:, :, 0, None]
+    )
+    again = summed_log_likelihood(angle, z[..., 0], received, sensor._image_sum)
+    assert np.array_equal(again, total)
+    single = sensor.log_likelihood(z[1], poses[1], particles[per])
+    assert np.array_equal(np.where(received[per][:, None], single, 0.0).sum(axis=0), total[per])
