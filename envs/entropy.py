@@ -28,7 +28,8 @@ At the uniform prior this is within 0.3 % of ``log(vol(Theta))`` for 500 to 10,0
 both environments' domains (test ``test_entropy_at_the_uniform_prior_is_the_log_volume``), and
 it follows a collapsing belief down to the spread floor (a Gaussian belief of std 0.3 reads its
 closed-form entropy ``log(2 pi e sigma^2)`` within 0.05 nats). Cost: one selection (equal
-weights) or sort (unequal weights) per coordinate and one ``bincount``.
+weights) or sort (unequal weights) per coordinate and one pass accumulating the cell masses, in
+one compiled call for all beliefs (:mod:`infoseek.envs.adaptive_grid`).
 
 **Fixed grid** (:func:`fixed_grid_entropy`, when a belief is given ``entropy_bins``): ``B`` equal
 cells over the whole domain, plug-in. Values are comparable across beliefs with the same grid,
@@ -39,11 +40,11 @@ reads ``log(V_c)``, the estimator's floor.
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from infoseek.envs.adaptive_grid import adaptive_entropies, plug_in_entropy
 from infoseek.envs.targets import TargetSpace
 
 FloatArray = NDArray[np.float64]
@@ -99,72 +100,15 @@ def _cell_entropy(
     ``[low, low + width]`` (:func:`grid_cell_index`), and the number of occupied cells."""
     flat = grid_cell_index(coords, low, width, bins)
     mass = np.bincount(flat, weights=weights, minlength=int(np.prod(bins)))
-    return _plug_in(mass)
-
-
-def _plug_in(mass: NDArray[Any]) -> tuple[float, int]:
-    """``-sum P_c log P_c`` of the non-empty cells of ``mass`` (renormalised), and their count."""
-    mass = mass[mass > 0]
-    mass = mass / mass.sum()
-    return float(-np.dot(mass, np.log(mass))), int(mass.size)
-
-
-def _unroll_periodic(columns: FloatArray) -> FloatArray:
-    """``(K, N)`` angles in ``[0, 1)``, each row shifted so that the largest gap between its
-    angles is at the wrap."""
-    ordered = np.sort(columns, axis=1)
-    gaps = np.diff(np.concatenate([ordered, ordered[:, :1] + 1.0], axis=1), axis=1)
-    first = (np.argmax(gaps, axis=1) + 1) % ordered.shape[1]
-    start = ordered[np.arange(ordered.shape[0]), first]
-    return np.mod(columns - start[:, None], 1.0)
-
-
-def _weighted_box(scaled: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """``(d,)`` weighted ``TAIL`` and ``1 - TAIL`` quantiles of every column of ``(N, d)``
-    ``scaled``: the smallest value whose cumulative weight (ascending) reaches that fraction."""
-    n, d = scaled.shape
-    columns = np.arange(d)
-    order = np.argsort(scaled, axis=0, kind="stable")
-    cumulative = np.cumsum(weights[order], axis=0)
-    low_k, high_k = (
-        np.minimum(np.argmax(cumulative >= q * cumulative[-1], axis=0), n - 1)
-        for q in (TAIL, 1 - TAIL)
-    )
-    return scaled[order[low_k, columns], columns], scaled[order[high_k, columns], columns]
-
-
-def _equal_weight_ranks(n: int, weight: float) -> tuple[int, int]:
-    """Ranks of the ``TAIL`` and ``1 - TAIL`` quantiles of ``n`` particles of equal ``weight``."""
-    cumulative = np.cumsum(np.full(n, weight))
-    low_k, high_k = (
-        min(int(np.argmax(cumulative >= q * cumulative[-1])), n - 1) for q in (TAIL, 1 - TAIL)
-    )
-    return low_k, high_k
-
-
-def _weighted_boxes(scaled: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """``(K, d)`` weighted quantile boxes of ``(K, N, d)`` particles. Rows of equal weights
-    (after resampling) share their quantile ranks and take one selection for all of them (the
-    order statistics of any order are the same); the others are sorted row by row."""
-    k_rows, n, d = scaled.shape
-    box_low = np.empty((k_rows, d))
-    box_high = np.empty((k_rows, d))
-    equal = np.all(weights == weights[:, :1], axis=1)
-    for weight in np.unique(weights[equal, 0]):
-        rows = np.flatnonzero(equal & (weights[:, 0] == weight))
-        low_k, high_k = _equal_weight_ranks(n, float(weight))
-        ordered = np.partition(scaled[rows], (low_k, high_k), axis=1)
-        box_low[rows], box_high[rows] = ordered[:, low_k], ordered[:, high_k]
-    for row in np.flatnonzero(~equal):
-        box_low[row], box_high[row] = _weighted_box(scaled[row], weights[row])
-    return box_low, box_high
+    plug_in, occupied = plug_in_entropy(mass)
+    return float(plug_in), int(occupied)
 
 
 def adaptive_histogram_entropy_rows(
     particles: FloatArray, weights: FloatArray, space: TargetSpace
 ) -> FloatArray:
     """Differential entropy on a grid adapted to the particles (module docstring), for ``K``
-    beliefs at once.
+    beliefs at once (compiled: :mod:`infoseek.envs.adaptive_grid`).
 
     Args:
         particles: ``(K, N, d)`` particles inside ``space``.
@@ -175,43 +119,15 @@ def adaptive_histogram_entropy_rows(
         ``(K,)`` entropies in nats (finite; at least about
         ``log(vol(Theta)) + d log(BOX_FLOOR) - log(ESS / PARTICLES_PER_CELL)``).
     """
-    k_rows, n, d = particles.shape
-    low, high = space.low_array, space.high_array
-    width = high - low
-    scaled = np.empty((k_rows, n, d))
-    for j in range(d):  # column by column: numpy is slow on (..., d) broadcasts of small d
-        scaled[:, :, j] = (particles[:, :, j] - low[j]) / width[j]
-    for angle in np.flatnonzero(np.asarray(space.periodic, dtype=bool)):
-        scaled[:, :, angle] = _unroll_periodic(np.mod(scaled[:, :, angle], 1.0))
-    box_low, box_high = _weighted_boxes(scaled, weights)
-    side = np.maximum(box_high - box_low, BOX_FLOOR)
-    ess = np.array([1.0 / np.dot(w, w) for w in weights])
-    bins = np.empty((k_rows, d), dtype=np.int64)
-    for row in range(k_rows):  # scalar arithmetic per belief, as in the one-belief estimate
-        n_cells = max(1.0, float(ess[row]) / PARTICLES_PER_CELL)
-        cube = (float(np.prod(side[row])) / n_cells) ** (1.0 / d)
-        bins[row] = np.maximum(1, np.round(side[row] / cube)).astype(np.int64)
-    factor = bins / side
-    strides = np.cumprod(
-        np.concatenate([bins[:, 1:], np.ones((k_rows, 1), np.int64)], axis=1)[:, ::-1], axis=1
-    )[:, ::-1]
-    offsets = np.concatenate([[0], np.cumsum(np.prod(bins, axis=1))])
-    flat = np.broadcast_to(offsets[:-1, None], (k_rows, n)).copy()
-    for j in range(d):  # the flat cell index, an exact integer dot product
-        column = scaled[:, :, j] - box_low[:, j : j + 1]
-        column *= factor[:, j : j + 1]
-        cell = np.floor(column, out=column).astype(np.int64)
-        np.maximum(cell, 0, out=cell)
-        np.minimum(cell, bins[:, j : j + 1] - 1, out=cell)
-        cell *= strides[:, j : j + 1]
-        flat += cell
-    mass = np.bincount(flat.ravel(), weights=weights.ravel(), minlength=int(offsets[-1]))
-    result = np.empty(k_rows)
-    for row in range(k_rows):
-        plug_in, occupied = _plug_in(mass[offsets[row] : offsets[row + 1]])
-        log_cell_volume = float(np.sum(np.log(side[row] / bins[row]) + np.log(width)))
-        result[row] = plug_in + log_cell_volume + (occupied - 1) / (2.0 * float(ess[row]))
-    return result
+    low = space.low_array
+    return adaptive_entropies(
+        particles,
+        weights,
+        low,
+        space.high_array - low,
+        np.asarray(space.periodic, dtype=bool),
+        (TAIL, BOX_FLOOR, PARTICLES_PER_CELL),
+    )
 
 
 def adaptive_histogram_entropy(

@@ -31,7 +31,14 @@ from infoseek.envs.compiled import kernel, pairwise_sum
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
-__all__ = ["DEGENERATE_LOG_EVIDENCE", "bayes_step", "ess_rows", "logsumexp_rows", "normalised"]
+__all__ = [
+    "DEGENERATE_LOG_EVIDENCE",
+    "bayes_step",
+    "ess_rows",
+    "is_uniform",
+    "logsumexp_rows",
+    "normalised",
+]
 
 #: Log evidence below which an update counts as degenerate (exp underflows in float64).
 DEGENERATE_LOG_EVIDENCE = -700.0
@@ -113,7 +120,7 @@ def ess_rows(weights: FloatArray) -> FloatArray:
 
 
 @kernel
-def _is_uniform(values: FloatArray) -> bool:
+def is_uniform(values: FloatArray) -> bool:
     """Whether every value equals the first (the log-weights of a resampled belief)."""
     for i in range(1, values.shape[0]):
         if values[i] != values[0]:
@@ -145,7 +152,7 @@ def _bayes_step(
         keep = live[k] and math.isfinite(log_z) and log_z >= DEGENERATE_LOG_EVIDENCE
         if keep and tempering:
             prior = log_weights[k]
-            uniform = _is_uniform(prior)
+            uniform = is_uniform(prior)
             if uniform and prior[0] == cached_value:
                 prior_log_ess = cached_log_ess
             else:
