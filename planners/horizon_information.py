@@ -26,8 +26,9 @@ on others) and evaluates :math:`\log \rho` of every particle pair at a pose as o
 ``(N, N)`` table lookup, so a set of ``K`` observations costs ``K N^2`` lookups plus one
 ``N^2`` log-sum-exp, whatever ``K``: the cost is quadratic in the planning particles and
 linear in the number of observations. The lookups, their sums over a sequence of poses and the
-log-sum-exp run as compiled kernels (:mod:`~infoseek.planners.horizon_kernels`) that give the
-bits of the NumPy expressions they replace.
+log-sum-exp's sums and shifts run as compiled kernels (:mod:`~infoseek.planners.horizon_affinity`,
+:mod:`~infoseek.planners.horizon_bound`) that give the bits of the NumPy expressions they
+replace.
 """
 
 from __future__ import annotations
@@ -38,7 +39,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from infoseek.planners import horizon_kernels as kernels
+from infoseek.planners.horizon_affinity import AffinityTable, log_affinity, pair_term_sums
+from infoseek.planners.horizon_bound import bound_rows
 
 FloatArray = NDArray[np.float64]
 
@@ -74,7 +76,7 @@ class HorizonInformation:
         self.periodic = bool(sensor.domain.periodic[0])
         self.period = high - low
         self._delta0, self._step, self._table = self._tabulate(low, high)
-        self._affinity = kernels.AffinityTable(
+        self._affinity = AffinityTable(
             self._table, self._delta0, self._step, self.period if self.periodic else None
         )
 
@@ -108,7 +110,7 @@ class HorizonInformation:
         Args:
             delta: Float64 differences of predictions, any shape, finite.
         """
-        return kernels.log_affinity(delta, self._affinity)
+        return log_affinity(delta, self._affinity)
 
     def _predictions(self, particles: FloatArray, poses: FloatArray) -> FloatArray:
         """``(..., N)`` noise-free predictions of every particle at ``(..., pose_dim)`` poses."""
@@ -118,13 +120,13 @@ class HorizonInformation:
         """``(P, N, N)`` ``log rho`` of every particle pair for each of ``(P, pose_dim)``
         poses (the summands of ``-D_B``)."""
         predictions = self._predictions(particles, poses)
-        return kernels.pair_term_sums(predictions[:, None, :], self._affinity)
+        return pair_term_sums(predictions[:, None, :], self._affinity)
 
     def pose_term_sums(self, particles: FloatArray, poses: FloatArray) -> FloatArray:
         """``(G, N, N)`` pair terms summed over each group of ``(G, H, pose_dim)`` poses:
         ``pose_terms(particles, poses[g]).sum(axis=0)`` bit for bit, without the
         ``(G, H, N, N)`` terms (a sequence's ``H`` observations)."""
-        return kernels.pair_term_sums(self._predictions(particles, poses), self._affinity)
+        return pair_term_sums(self._predictions(particles, poses), self._affinity)
 
     @staticmethod
     def value(log_rho: FloatArray, weights: FloatArray) -> FloatArray:
@@ -133,7 +135,7 @@ class HorizonInformation:
         log_rho = np.asarray(log_rho, dtype=np.float64)
         n = log_rho.shape[-1]
         empty = np.empty((0, n, n))
-        rows = kernels.bound_rows(log_rho.reshape(-1, n, n), empty, np.log(weights))
+        rows = bound_rows(log_rho.reshape(-1, n, n), empty, np.log(weights))
         return -(rows.reshape(log_rho.shape[:-1]) @ weights)
 
     @staticmethod
@@ -141,5 +143,5 @@ class HorizonInformation:
         """``(C,)`` :meth:`value` of ``own[c] + partners[0] + partners[1] + ...`` (summed in
         that order) for ``(C, N, N)`` ``own`` and ``(K, N, N)`` ``partners``, without forming
         the sums."""
-        rows = kernels.bound_rows(own, partners, np.log(weights))
+        rows = bound_rows(own, partners, np.log(weights))
         return -(rows @ weights)
