@@ -31,7 +31,6 @@ from numpy.typing import NDArray
 from infoseek.envs.entropy import (
     adaptive_histogram_entropy_rows,
     fixed_grid_entropy,
-    grid_cell_index,
 )
 from infoseek.envs.history import ObservationHistory
 from infoseek.envs.log_weights import (
@@ -43,6 +42,7 @@ from infoseek.envs.log_weights import (
 )
 from infoseek.envs.resampling import systematic_resample, systematic_resample_rows
 from infoseek.envs.roughening import coordinate_ranges, jitter
+from infoseek.envs.summaries import mass_grids, masses_within, weighted_means
 from infoseek.envs.targets import StationaryTarget, TargetMotion, TargetSpace
 
 FloatArray = NDArray[np.float64]
@@ -318,8 +318,8 @@ class BeliefBatch:
         elif plain.size:
             self.log_weights = self.log_weights.copy()
             self.weights = self.weights.copy()
-            self.log_weights[plain] = log_weights[plain]
-            self.weights[plain] = weights[plain]
+            self.log_weights[plain] = log_weights
+            self.weights[plain] = weights
         result.log_evidence[plain] = log_z[plain]
         for k in special:  # progressive correction or recovery: that belief alone
             g = k // (k_rows // z.shape[0])
@@ -541,7 +541,7 @@ class BeliefBatch:
     def mmse(self, rows: NDArray[np.intp] | None = None) -> FloatArray:
         """``(K, d)`` MMSE estimates (eq. 12; circular/axial means of periodic angles)."""
         particles, weights = self._rows(rows)
-        est = np.stack([w @ p for w, p in zip(weights, particles, strict=True)])
+        est = weighted_means(particles, weights)
         idx = np.flatnonzero(self.space.periodic_mask)
         for k in range(est.shape[0] if idx.size else 0):
             est[k, idx] = angle_means(self.space, particles[k][:, idx], weights[k])
@@ -553,13 +553,7 @@ class BeliefBatch:
         """``(K,)`` posterior mass whose position lies within ``radius`` of ``(K, >= 2)``
         ``centers`` (their position part)."""
         particles, weights = self._rows(rows)
-        dx = particles[:, :, 0] - centers[:, 0:1]
-        dy = particles[:, :, 1] - centers[:, 1:2]
-        dx *= dx
-        dy *= dy
-        dx += dy
-        inside = dx <= float(radius) ** 2
-        return np.array([min(1.0, w[mask].sum()) for w, mask in zip(weights, inside, strict=True)])
+        return masses_within(particles, weights, centers, radius)
 
     def entropy(self, rows: NDArray[np.intp] | None = None) -> FloatArray:
         """``(K,)`` histogram entropy estimates (eq. 6; :mod:`infoseek.envs.entropy`)."""
@@ -572,19 +566,9 @@ class BeliefBatch:
 
     def mass_grid(self, shape: tuple[int, int], rows: NDArray[np.intp] | None = None) -> FloatArray:
         """``(K, gx, gy)`` posterior position mass on a coarse grid over the position box."""
-        gx, gy = shape
         particles, weights = self._rows(rows)
-        k_rows, n = particles.shape[0], self.n_particles
         low = self.space.low_array[[0, 1]]
-        width = self.space.high_array[[0, 1]] - low
-        cells = gx * gy
-        flat = grid_cell_index(
-            particles[:, :, :2].reshape(k_rows * n, 2), low, width, np.array([gx, gy])
-        ).reshape(k_rows, n)
-        flat += (cells * np.arange(k_rows))[:, None]
-        mass = np.bincount(flat.ravel(), weights=weights.ravel(), minlength=k_rows * cells)
-        mass = mass.reshape(k_rows, cells)
-        return (mass / mass.sum(axis=1, keepdims=True)).reshape(k_rows, gx, gy)
+        return mass_grids(particles, weights, low, self.space.high_array[[0, 1]] - low, shape)
 
 
 def _sensor_log_likelihood(

@@ -1,4 +1,4 @@
-r"""Log-weight arithmetic of ``K`` particle beliefs, compiled: normaliser, Bayes step, ESS.
+r"""Log-weight arithmetic of ``K`` particle beliefs: normaliser, Bayes step, ESS.
 
 For each row ``k`` of ``(K, N)`` log-weights :math:`\ell_{k,n}`:
 
@@ -12,11 +12,11 @@ For each row ``k`` of ``(K, N)`` log-weights :math:`\ell_{k,n}`:
   progressive correction, leaves :math:`\log \mathrm{ESS}(\ell') \ge \log \tau +
   \log \mathrm{ESS}(\ell)` (``tau`` the tempering floor); other rows are left to the caller.
 
-Every row is computed alone (equal rows give equal results, so the log ESS of a uniform prior
-row is computed once and reused), as the NumPy expressions these kernels replace computed it
-(``exp`` and ``log`` of the C library, sums in NumPy's pairwise order, ``1 / dot(w, w)``
-through BLAS): row ``k`` does not depend on the other rows, and the numbers are those of the
-NumPy code bit for bit in the pinned numerical environment (:mod:`infoseek.envs.compiled`).
+Every row is computed alone (equal rows give equal results, so the log ESS of uniform rows is
+computed once): row ``k`` does not depend on the other rows. The ``exp`` passes over the
+``(K, N)`` arrays stay NumPy ufuncs (SIMD loops, faster than a compiled call of the C library's
+``exp`` per element); the per-row logarithms, ESS and uniformity tests are compiled. The
+numbers are those of the earlier NumPy form bit for bit.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from infoseek.envs.compiled import kernel, pairwise_sum
+from infoseek.envs.compiled import kernel
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -36,6 +36,7 @@ __all__ = [
     "bayes_step",
     "ess_rows",
     "is_uniform",
+    "log_ess_rows",
     "logsumexp_rows",
     "normalised",
 ]
@@ -45,28 +46,13 @@ DEGENERATE_LOG_EVIDENCE = -700.0
 
 
 @kernel
-def _logsumexp(values: FloatArray, scratch: FloatArray, scale: float) -> float:
-    """``log sum exp(scale * values)`` of one row (``scratch`` holds the shifted exponentials)."""
-    n = values.shape[0]
-    peak = -math.inf
-    for i in range(n):
-        v = scale * values[i]
-        if v > peak or math.isnan(v):
-            peak = v
-    if not math.isfinite(peak):
-        return peak
-    for i in range(n):
-        scratch[i] = math.exp(scale * values[i] - peak)
-    return peak + math.log(pairwise_sum(scratch))
-
-
-@kernel
-def _logsumexp_rows(values: FloatArray) -> FloatArray:
-    k_rows, n = values.shape
-    out = np.empty(k_rows)
-    scratch = np.empty(n)
-    for k in range(k_rows):
-        out[k] = _logsumexp(values[k], scratch, 1.0)
+def _log_normalisers(peak: FloatArray, sums: FloatArray) -> FloatArray:
+    """``peak + log(sums)`` where ``peak`` is finite, ``peak`` elsewhere (the C library's
+    ``log``, as ``math.log`` calls it)."""
+    out = peak.copy()
+    for k in range(peak.shape[0]):
+        if math.isfinite(peak[k]):
+            out[k] = peak[k] + math.log(sums[k])
     return out
 
 
@@ -79,30 +65,19 @@ def logsumexp_rows(values: FloatArray) -> FloatArray:
     Returns:
         ``(K,)`` log normalisers; ``-inf`` for a row of ``-inf``, ``+inf`` if the row holds one.
     """
-    return _logsumexp_rows(_rows_of(values, "values"))
-
-
-@kernel
-def _normalise_into(log_weights: FloatArray, weights: FloatArray) -> None:
-    """``weights = exp(log_weights) / sum(exp(log_weights))`` of one row."""
-    for i in range(log_weights.shape[0]):
-        weights[i] = math.exp(log_weights[i])
-    total = pairwise_sum(weights)
-    for i in range(weights.shape[0]):
-        weights[i] = weights[i] / total
-
-
-@kernel
-def _normalised(log_weights: FloatArray) -> FloatArray:
-    weights = np.empty_like(log_weights)
-    for k in range(log_weights.shape[0]):
-        _normalise_into(log_weights[k], weights[k])
-    return weights
+    values = _rows_of(values, "values")
+    peak = values.max(axis=1)
+    shift = np.where(np.isfinite(peak), peak, 0.0)
+    with np.errstate(invalid="ignore"):
+        sums = np.exp(values - shift[:, None]).sum(axis=1)
+    return _log_normalisers(peak, sums)  # type: ignore[no-any-return]
 
 
 def normalised(log_weights: FloatArray) -> FloatArray:
     """``(K, N)`` weights ``exp(l) / sum exp(l)`` of ``(K, N)`` normalised log-weights."""
-    return _normalised(_rows_of(log_weights, "log_weights"))
+    weights = np.exp(_rows_of(log_weights, "log_weights"))
+    weights /= weights.sum(axis=1, keepdims=True)
+    return weights
 
 
 @kernel
@@ -116,7 +91,16 @@ def _ess_rows(weights: FloatArray) -> FloatArray:
 
 def ess_rows(weights: FloatArray) -> FloatArray:
     """``(K,)`` effective sample sizes ``1 / sum w^2`` of ``(K, N)`` normalised weights."""
-    return _ess_rows(_rows_of(weights, "weights"))
+    return _ess_rows(_rows_of(weights, "weights"))  # type: ignore[no-any-return]
+
+
+@kernel
+def _uniform_rows(values: FloatArray) -> BoolArray:
+    """``(K,)`` whether every value of a row equals its first (a resampled belief)."""
+    out = np.empty(values.shape[0], dtype=np.bool_)
+    for k in range(values.shape[0]):
+        out[k] = is_uniform(values[k])
+    return out
 
 
 @kernel
@@ -128,47 +112,22 @@ def is_uniform(values: FloatArray) -> bool:
     return True
 
 
-@kernel
-def _bayes_step(
-    log_weights: FloatArray,
-    log_likelihood: FloatArray,
-    live: BoolArray,
-    log_tempering_ess: float,
-    tempering: bool,
-) -> tuple[FloatArray, FloatArray, FloatArray, BoolArray]:
-    k_rows, n = log_weights.shape
-    updated = np.empty_like(log_weights)
-    weights = np.empty_like(log_weights)
-    log_evidence = np.empty(k_rows)
-    accepted = np.zeros(k_rows, dtype=np.bool_)
-    scratch = np.empty(n)
-    cached_value, cached_log_ess = math.nan, 0.0  # log ESS of the last uniform prior row
-    for k in range(k_rows):
-        row = updated[k]
-        for i in range(n):
-            row[i] = log_weights[k, i] + log_likelihood[k, i]
-        log_z = _logsumexp(row, scratch, 1.0)
-        log_evidence[k] = log_z
-        keep = live[k] and math.isfinite(log_z) and log_z >= DEGENERATE_LOG_EVIDENCE
-        if keep and tempering:
-            prior = log_weights[k]
-            uniform = is_uniform(prior)
-            if uniform and prior[0] == cached_value:
-                prior_log_ess = cached_log_ess
-            else:
-                prior_log_ess = 2.0 * _logsumexp(prior, scratch, 1.0) - _logsumexp(
-                    prior, scratch, 2.0
-                )
-                if uniform:
-                    cached_value, cached_log_ess = prior[0], prior_log_ess
-            log_floor = log_tempering_ess + prior_log_ess
-            keep = 2.0 * log_z - _logsumexp(row, scratch, 2.0) >= log_floor
-        accepted[k] = keep
-        if keep:
-            for i in range(n):
-                row[i] = row[i] - log_z
-            _normalise_into(row, weights[k])
-    return updated, weights, log_evidence, accepted
+def log_ess_rows(log_weights: FloatArray) -> FloatArray:
+    """``(K,)`` ``log ESS = 2 log Z(l) - log Z(2 l)`` of ``(K, N)`` log-weights, computed once
+    for all rows of equal log-weights (equal rows give equal results)."""
+    log_weights = _rows_of(log_weights, "log_weights")
+    out = np.empty(log_weights.shape[0])
+    uniform = _uniform_rows(log_weights)
+    first = log_weights[:, 0]
+    for value in np.unique(first[uniform]):
+        rows = np.flatnonzero(uniform & (first == value))
+        one = log_weights[rows[:1]]
+        out[rows] = 2.0 * logsumexp_rows(one)[0] - logsumexp_rows(2.0 * one)[0]
+    rest = np.flatnonzero(~uniform)
+    if rest.size:
+        some = log_weights[rest]
+        out[rest] = 2.0 * logsumexp_rows(some) - logsumexp_rows(2.0 * some)
+    return out
 
 
 def bayes_step(
@@ -188,9 +147,9 @@ def bayes_step(
             ``None`` to accept every live row of admissible evidence.
 
     Returns:
-        ``(log_weights, weights, log_evidence, accepted)``: ``(K, N)`` normalised log-weights
-        and weights of the accepted rows (other rows hold unspecified values), ``(K,)`` log
-        evidence of every row, ``(K,)`` which rows were accepted.
+        ``(log_weights, weights, log_evidence, accepted)``: ``(A, N)`` normalised log-weights
+        and weights of the ``A`` accepted rows (in row order), ``(K,)`` log evidence of every
+        row, ``(K,)`` which rows were accepted.
     """
     log_weights = _rows_of(log_weights, "log_weights")
     log_likelihood = _rows_of(log_likelihood, "log_likelihood")
@@ -199,12 +158,21 @@ def bayes_step(
             f"log_likelihood must have the shape of log_weights {log_weights.shape}, "
             f"got {log_likelihood.shape}"
         )
-    live = np.ascontiguousarray(live, dtype=np.bool_)
+    live = np.asarray(live, dtype=np.bool_)
     if live.shape != log_weights.shape[:1]:
         raise ValueError(f"live must have shape {log_weights.shape[:1]}, got {live.shape}")
-    tempering = tempering_ess is not None
-    log_tau = math.log(tempering_ess) if tempering_ess is not None else 0.0
-    return _bayes_step(log_weights, log_likelihood, live, log_tau, tempering)  # type: ignore[no-any-return]
+    full = log_weights + log_likelihood
+    log_z = logsumexp_rows(full)
+    with np.errstate(invalid="ignore"):
+        accepted = live & np.isfinite(log_z) & (log_z >= DEGENERATE_LOG_EVIDENCE)
+        if tempering_ess is not None and accepted.any():
+            rows = np.flatnonzero(accepted)
+            log_floor = math.log(tempering_ess) + log_ess_rows(log_weights[rows])
+            posterior = 2.0 * log_z[rows] - logsumexp_rows(2.0 * full[rows])
+            accepted[rows] = posterior >= log_floor
+    rows = np.flatnonzero(accepted)
+    updated = full[rows] - log_z[rows, None]
+    return updated, normalised(updated), log_z, accepted
 
 
 def _rows_of(values: object, name: str) -> FloatArray:

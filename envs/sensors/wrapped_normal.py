@@ -12,9 +12,10 @@ For a residual :math:`x` (any real), :math:`r = |\operatorname{wrap}(x)|` with
     \qquad c_{1,t} = -2 s_t a_t / (2\sigma^2),\ c_{2,t} = a_t^2 / (2\sigma^2).
 
 The clip at ``-700`` keeps ``exp`` out of the subnormals; a clipped term is the constant
-``exp(-700)``, and a sum that is only that constant has the constant ``log1p`` of it, so most
-residuals (those within about ``pi - 1.1`` of zero for ``sigma = 0.1``) need no ``exp`` or
-``log1p`` call at all, with the same result as evaluating them.
+``exp(-700)``, and a sum of clipped terms has a constant ``log1p``, so most residuals (those
+within about ``pi - 1.1`` of zero for ``sigma = 0.1``) need no ``exp`` or ``log1p`` call at
+all, with the same result as evaluating them: a vectorisable pass computes every density as if
+all its terms were clipped, and a second pass re-evaluates the few that are not.
 
 :func:`summed_log_likelihood` adds, for every belief, the log densities of the observations it
 received, in observation order (a missing observation adds ``0.0``), from bearings computed by
@@ -39,7 +40,6 @@ __all__ = ["ImageSum", "summed_log_likelihood", "wrapped_log_density"]
 
 _CLIP = -700.0
 _CLIPPED_TERM = math.exp(_CLIP)
-_LOG1P_CLIPPED_TERM = math.log1p(_CLIPPED_TERM)
 _LOW = -math.pi
 _PERIOD = 2.0 * math.pi
 _INV_PERIOD = 1.0 / _PERIOD
@@ -62,39 +62,74 @@ class ImageSum:
         self.slopes = np.array([-sign * 2.0 * a * inv_2s2 for a, sign in image_terms])
         self.offsets = np.array([a * a * inv_2s2 for a, _ in image_terms])
         self.log_norm = log_norm
+        clipped = 0.0
+        for t in range(len(image_terms)):  # the image sum with every term at the clip
+            clipped = _CLIPPED_TERM if t == 0 else clipped + _CLIPPED_TERM
+        #: ``(log1p(clipped sum), 1 / (2 sigma^2), log_norm)`` for the kernels.
+        self.constants = (math.log1p(clipped), inv_2s2, log_norm)
 
 
 @kernel
-def _log_density(
-    residual: float, slopes: FloatArray, offsets: FloatArray, inv_2s2: float, log_norm: float
-) -> float:
+def _wrapped_distance(residual: float) -> float:
+    """``|wrap(residual)|`` with ``wrap`` into ``[-pi, pi)`` (branch-free: vectorisable)."""
     shifted = residual - _LOW
     wrapped = shifted - _PERIOD * math.floor(shifted * _INV_PERIOD)
-    if wrapped >= _PERIOD:
-        wrapped -= _PERIOD
-    if wrapped < 0.0:
-        wrapped += _PERIOD
-    r = abs(wrapped + _LOW)
+    wrapped = wrapped - _PERIOD if wrapped >= _PERIOD else wrapped
+    wrapped = wrapped + _PERIOD if wrapped < 0.0 else wrapped
+    return abs(wrapped + _LOW)
+
+
+@kernel
+def _exact_log_density(
+    r: float, slopes: FloatArray, offsets: FloatArray, inv_2s2: float, log_norm: float
+) -> float:
+    """The log density at wrapped distance ``r``, every image term evaluated."""
     total = 0.0
     for t in range(slopes.shape[0]):
         arg = r * slopes[t] - offsets[t]
         term = _CLIPPED_TERM if arg <= _CLIP else math.exp(arg)
         total = term if t == 0 else total + term
-    if total == _CLIPPED_TERM:
-        result = _LOG1P_CLIPPED_TERM
-    else:
-        result = math.log1p(total)
-    return (result - (r * r) * inv_2s2) + log_norm
+    return (math.log1p(total) - (r * r) * inv_2s2) + log_norm
+
+
+@kernel
+def _log_densities(
+    residual: FloatArray,
+    out: FloatArray,
+    distance: FloatArray,
+    slopes: FloatArray,
+    offsets: FloatArray,
+    constants: tuple[float, float, float],
+) -> None:
+    """Log densities of ``residual`` into ``out`` (``distance`` is scratch of the same length).
+
+    A first, vectorisable pass assumes every image term clipped (``log1p`` of the clipped sum
+    is the constant ``constants[0]``); a second pass re-evaluates the few residuals with an
+    image term above the clip.
+    """
+    clipped_log1p, inv_2s2, log_norm = constants
+    for i in range(residual.shape[0]):
+        r = _wrapped_distance(residual[i])
+        distance[i] = r
+        out[i] = (clipped_log1p - (r * r) * inv_2s2) + log_norm
+    for i in range(residual.shape[0]):
+        r = distance[i]
+        for t in range(slopes.shape[0]):
+            if r * slopes[t] - offsets[t] > _CLIP:
+                out[i] = _exact_log_density(r, slopes, offsets, inv_2s2, log_norm)
+                break
 
 
 @kernel
 def _wrapped_log_density(
-    residual: FloatArray, slopes: FloatArray, offsets: FloatArray, inv_2s2: float, log_norm: float
+    residual: FloatArray,
+    slopes: FloatArray,
+    offsets: FloatArray,
+    constants: tuple[float, float, float],
 ) -> FloatArray:
-    flat = residual.ravel()
+    flat = np.ascontiguousarray(residual).ravel()
     out = np.empty(flat.shape[0])
-    for i in range(flat.shape[0]):
-        out[i] = _log_density(flat[i], slopes, offsets, inv_2s2, log_norm)
+    _log_densities(flat, out, np.empty(flat.shape[0]), slopes, offsets, constants)
     return out.reshape(residual.shape)
 
 
@@ -110,7 +145,7 @@ def wrapped_log_density(residual: FloatArray, image_sum: ImageSum) -> FloatArray
     """
     residual = np.ascontiguousarray(residual, dtype=np.float64)
     s = image_sum
-    return _wrapped_log_density(residual, s.slopes, s.offsets, s.inv_2s2, s.log_norm)  # type: ignore[no-any-return]
+    return _wrapped_log_density(residual, s.slopes, s.offsets, s.constants)  # type: ignore[no-any-return]
 
 
 @kernel
@@ -120,26 +155,33 @@ def _summed(
     received: BoolArray,
     slopes: FloatArray,
     offsets: FloatArray,
-    inv_2s2: float,
-    log_norm: float,
+    constants: tuple[float, float, float],
 ) -> FloatArray:
     groups, m, width = bearings.shape
     k_rows = received.shape[0]
     per = k_rows // groups
     n = width // per
     total = np.empty((k_rows, n))
-    for k in range(k_rows):
-        g = k // per
-        base = (k - g * per) * n
-        for i in range(n):
-            acc = 0.0
-            for j in range(m):
-                value = 0.0
+    density = np.empty((m, width))
+    residual = np.empty(width)
+    distance = np.empty(width)
+    for g in range(groups):
+        for j in range(m):
+            for i in range(width):
+                residual[i] = z[g, j] - bearings[g, j, i]
+            _log_densities(residual, density[j], distance, slopes, offsets, constants)
+        for q in range(per):
+            k = g * per + q
+            row = total[k]
+            for i in range(n):  # observation order; a missing observation adds 0.0
+                row[i] = density[0, q * n + i] if received[k, 0] else 0.0
+            for j in range(1, m):
                 if received[k, j]:
-                    residual = z[g, j] - bearings[g, j, base + i]
-                    value = _log_density(residual, slopes, offsets, inv_2s2, log_norm)
-                acc = value if j == 0 else acc + value
-            total[k, i] = acc
+                    for i in range(n):
+                        row[i] = row[i] + density[j, q * n + i]
+                else:
+                    for i in range(n):
+                        row[i] = row[i] + 0.0
     return total
 
 
@@ -172,4 +214,4 @@ def summed_log_likelihood(
             "do not describe G groups of K / G beliefs and M observations"
         )
     s = image_sum
-    return _summed(bearings, z, received, s.slopes, s.offsets, s.inv_2s2, s.log_norm)  # type: ignore[no-any-return]
+    return _summed(bearings, z, received, s.slopes, s.offsets, s.constants)  # type: ignore[no-any-return]
