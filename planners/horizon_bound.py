@@ -9,13 +9,23 @@ sums :math:`S_0`, then the ``K`` partner plans' in order, added in that order), 
            r_n = \log \sum_m e^{L(n, m) + \log w_m - M_n} + M_n .
 
 :func:`bound_rows` computes the rows :math:`r` of ``C`` candidates as the NumPy expression
-``log(exp(shifted - top).sum(-1)) + top`` did, with the temporaries ``L`` and ``shifted``
-fused into one compiled pass (:func:`_exponents`: the sums, ``+ log w``, the row maximum and
-the shift), chunk by chunk of candidates so that the exponents stay in the cache. The
-exponential, the row sums (NumPy's pairwise order) and the logarithm stay NumPy calls on the
-exponents: in the pinned numerical environment they are the C library's functions, as a
-kernel's would be, and elsewhere NumPy's SIMD loops are several times faster than the C
-library, so the bound keeps the speed (and the bits) of the NumPy code in both.
+``log(exp(shifted - top).sum(-1)) + top`` did, chunk by chunk of candidates so that the
+exponents stay in the cache:
+
+1. one compiled pass (:func:`_exponents`) forms the sums ``L``, adds ``log w``, takes the row
+   maximum and the shift, and packs the exponents that do not underflow
+   (:math:`x \ge -746`) into one array;
+2. NumPy's ``exp`` of the packed exponents;
+3. a compiled pass (:func:`_row_sums`) puts each row back together (``0.0`` for an
+   underflowing exponent: :math:`e^x < 2^{-1076}` rounds to zero in every ``exp``) and sums it
+   in NumPy's pairwise order (:func:`~infoseek.envs.compiled.pairwise_sum`);
+4. NumPy's ``log`` of the sums, plus ``M``.
+
+The exponential and the logarithm stay NumPy calls: in the pinned numerical environment they
+are the C library's functions, as a kernel's would be, and elsewhere NumPy's SIMD loops are
+several times faster than the C library, so the bound keeps the bits of the NumPy code in
+both. Leaving out the underflowing exponents matters at a wide belief (the first step), where
+a fifth of the pairs are more than ``exp(-746)`` apart and ``exp`` takes its slow path on them.
 """
 
 from __future__ import annotations
@@ -23,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from infoseek.envs.compiled import kernel
+from infoseek.envs.compiled import kernel, pairwise_sum
 
 FloatArray = NDArray[np.float64]
 
@@ -31,6 +41,9 @@ __all__ = ["bound_rows"]
 
 #: Candidates per chunk: 8 x 128 x 128 float64 exponents (1 MiB) at the default 128 particles.
 CHUNK_CANDIDATES = 8
+#: Exponents below this have ``exp(x) == 0.0`` (the smallest subnormal is ``exp(-744.44)``;
+#: ``exp(x)`` for ``x < -745.14`` rounds to zero).
+EXP_UNDERFLOW = -746.0
 
 
 @kernel
@@ -41,12 +54,18 @@ def _exponents(
     start: int,
     out: FloatArray,
     tops: FloatArray,
-) -> None:
+    packed: FloatArray,
+) -> int:
     """``out[c - start, n, m] = L(n, m) + log w_m - M_n`` and ``tops[c, n] = M_n`` for the
-    candidates ``c = start .. start + len(out) - 1`` (module docstring)."""
+    candidates ``c = start .. start + len(out) - 1``; the exponents ``>= EXP_UNDERFLOW`` are
+    also copied, in order, to the front of ``packed``. Returns how many.
+
+    Row ``n`` of every candidate of the chunk in turn: the partners' rows ``n`` stay in the
+    first-level cache while the candidates' rows stream past.
+    """
     n = own.shape[2]
-    for c in range(start, start + out.shape[0]):
-        for i in range(own.shape[1]):
+    for i in range(own.shape[1]):
+        for c in range(start, start + out.shape[0]):
             row = out[c - start, i]
             for m in range(n):
                 row[m] = own[c, i, m]
@@ -62,6 +81,27 @@ def _exponents(
             for m in range(n):
                 row[m] -= top
             tops[c, i] = top
+    flat = out.reshape(-1)
+    count = 0
+    for j in range(flat.shape[0]):  # without branches: always write, advance when kept
+        packed[count] = flat[j]
+        count += not flat[j] < EXP_UNDERFLOW  # NaN is kept (and propagates)
+    return count
+
+
+@kernel
+def _row_sums(exponents: FloatArray, packed: FloatArray, start: int, sums: FloatArray) -> None:
+    """``sums[c, n] = sum_m exp(exponents[c - start, n, m])`` (NumPy's pairwise order), the
+    exponentials read in order from ``packed`` and ``0.0`` for underflowing exponents."""
+    row = np.empty(exponents.shape[2])
+    count = 0
+    for c in range(exponents.shape[0]):
+        for i in range(exponents.shape[1]):
+            for m in range(row.shape[0]):
+                kept = not exponents[c, i, m] < EXP_UNDERFLOW
+                row[m] = packed[count] if kept else 0.0  # packed has one slot of slack
+                count += kept
+            sums[start + c, i] = pairwise_sum(row)
 
 
 def bound_rows(own: FloatArray, partners: FloatArray, log_weights: FloatArray) -> FloatArray:
@@ -95,12 +135,12 @@ def bound_rows(own: FloatArray, partners: FloatArray, log_weights: FloatArray) -
     tops = np.empty((n_candidates, n))
     sums = np.empty((n_candidates, n))
     exponents = np.empty((min(CHUNK_CANDIDATES, n_candidates), n, n))
+    packed = np.empty(exponents.size + 1)  # + 1: _row_sums may read one past the last kept
     for start in range(0, n_candidates, CHUNK_CANDIDATES):
-        stop = min(n_candidates, start + CHUNK_CANDIDATES)
-        chunk = exponents[: stop - start]
-        _exponents(own, partners, log_weights, start, chunk, tops)
-        np.exp(chunk, out=chunk)
-        np.sum(chunk, axis=-1, out=sums[start:stop])
+        chunk = exponents[: min(n_candidates, start + CHUNK_CANDIDATES) - start]
+        kept = packed[: _exponents(own, partners, log_weights, start, chunk, tops, packed)]
+        np.exp(kept, out=kept)
+        _row_sums(chunk, packed, start, sums)
     return np.log(sums) + tops
 
 

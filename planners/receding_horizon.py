@@ -52,6 +52,7 @@ from infoseek.planners.controls import candidate_grid, controls_to_actions
 from infoseek.planners.coordination import coordinate
 from infoseek.planners.horizon_information import HorizonInformation
 from infoseek.planners.model import EnvModel, FloatArray
+from infoseek.planners.utilities import PlanningBelief
 
 __all__ = ["RecedingHorizonConfig", "RecedingHorizonPlanner"]
 
@@ -124,36 +125,12 @@ class RecedingHorizonPlanner(Planner):
         start = time.perf_counter()
         rows = [self.model.agent_index(agent) for agent in agents]
         tracks = self._tracks(states[rows])
-        n_vehicles, n_seq, horizon, _ = tracks.shape
+        n_vehicles, n_seq = tracks.shape[:2]
         beliefs = planning_beliefs(agents, infos, self.config.n_planning, self.rng)
         tic = time.perf_counter()
-        own = [
-            self.information.pose_term_sums(b.particles, tracks[i]) for i, b in enumerate(beliefs)
-        ]
-        partner_terms: list[dict[tuple[int, int], FloatArray]] = [{} for _ in agents]
-
-        def utility(i: int, plans: NDArray[np.int64]) -> FloatArray:
-            tic = time.perf_counter()
-            cache = partner_terms[i]
-            keys = [(j, int(plans[j])) for j in range(n_vehicles) if j != i]
-            for key in keys:
-                if key not in cache:
-                    poses = tracks[key[0], key[1]][None]
-                    cache[key] = self.information.pose_term_sums(beliefs[i].particles, poses)[0]
-            partners = (
-                np.stack([cache[key] for key in keys])
-                if keys
-                else np.empty((0,) + own[i].shape[1:])
-            )
-            value = self.information.bound(own[i], partners, beliefs[i].weights)
-            seconds.append(time.perf_counter() - tic)
-            return value
-
-        no_partner = np.empty((0,) + own[0].shape[1:])
-        alone = [
-            self.information.bound(own[i], no_partner, b.weights) for i, b in enumerate(beliefs)
-        ]
-        seconds = [time.perf_counter() - tic]  # the information work; each utility call adds
+        utility = _SequenceUtilities(self.information, beliefs, tracks)
+        alone = [utility.alone(i) for i in range(n_vehicles)]
+        utility.seconds = time.perf_counter() - tic  # the information work; each call adds
         flat = self.sequences.reshape(n_seq, -1)
         result = coordinate(
             [flat] * n_vehicles,
@@ -171,6 +148,63 @@ class RecedingHorizonPlanner(Planner):
             grid_controls=controls,
             refined=False,
             planning_time=time.perf_counter() - start,
-            utility_time=sum(seconds),
+            utility_time=utility.seconds,
         )
         return actions
+
+
+class _SequenceUtilities:
+    """Each vehicle's horizon bound of its sequences given its partners' plans, the pair sums
+    and the values cached for one decision.
+
+    ``own[i]`` holds the ``(C, N, N)`` pair sums of vehicle ``i``'s sequences on its planning
+    particles; a partner plan's ``(N, N)`` sums on ``i``'s particles are computed at its first
+    use; a utility asked again with the same partner plans (the coordination's later sweeps
+    often do) is returned from the cache: the same arrays give the same bits.
+
+    Args:
+        information: The bound.
+        beliefs: Each vehicle's planning particles.
+        tracks: ``(A, C, H, 2)`` positions of every vehicle flying every sequence.
+    """
+
+    def __init__(
+        self, information: HorizonInformation, beliefs: list[PlanningBelief], tracks: FloatArray
+    ) -> None:
+        self.information = information
+        self.beliefs = beliefs
+        self.tracks = tracks
+        self.own = [
+            information.pose_term_sums(b.particles, tracks[i]) for i, b in enumerate(beliefs)
+        ]
+        self._partner_terms: list[dict[tuple[int, int], FloatArray]] = [{} for _ in beliefs]
+        self._values: list[dict[tuple[tuple[int, int], ...], FloatArray]] = [{} for _ in beliefs]
+        #: Seconds spent in utility evaluations.
+        self.seconds = 0.0
+
+    def alone(self, i: int) -> FloatArray:
+        """``(C,)`` vehicle ``i``'s bound of its own observations only."""
+        return self._value(i, ())
+
+    def __call__(self, i: int, plans: NDArray[np.int64]) -> FloatArray:
+        """``(C,)`` vehicle ``i``'s bound with every other vehicle ``j`` flying ``plans[j]``."""
+        tic = time.perf_counter()
+        keys = tuple((j, int(plans[j])) for j in range(len(self.beliefs)) if j != i)
+        value = self._value(i, keys)
+        self.seconds += time.perf_counter() - tic
+        return value
+
+    def _value(self, i: int, keys: tuple[tuple[int, int], ...]) -> FloatArray:
+        """The bound of vehicle ``i`` with the partner plans ``keys`` (``(j, sequence)``), the
+        partners' pair sums added in the order of ``keys``."""
+        if keys not in self._values[i]:
+            cache, particles = self._partner_terms[i], self.beliefs[i].particles
+            for key in keys:
+                if key not in cache:
+                    poses = self.tracks[key[0], key[1]][None]
+                    cache[key] = self.information.pose_term_sums(particles, poses)[0]
+            own = self.own[i]
+            partners = np.stack([cache[key] for key in keys]) if keys else own[:0]
+            value = self.information.bound(own, partners, self.beliefs[i].weights)
+            self._values[i][keys] = value
+        return self._values[i][keys].copy()
