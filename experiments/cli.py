@@ -409,7 +409,11 @@ def run_verify_command(args: argparse.Namespace) -> int:
 def _numerics_line(numerics: dict[str, Any]) -> str:
     blas = ", ".join(f"{b.get('library')} {b.get('kernel')}" for b in numerics.get("blas", []))
     simd = "/".join(numerics.get("numpy_simd", [])) or "baseline"
-    return f"NumPy {numerics.get('numpy')} SIMD {simd}; BLAS {blas or 'none loaded'}"
+    line = f"NumPy {numerics.get('numpy')} SIMD {simd}; BLAS {blas or 'none loaded'}"
+    numba = numerics.get("numba")  # stores written before the compiled kernels have none
+    if numba is not None:
+        line += f"; numba {numba.get('numba')} target {numba.get('cpu_name')}"
+    return line
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -16,6 +16,12 @@ every x86-64 CPU with AVX2 runs, and :func:`pin` sets it before NumPy is importe
 also runs with one BLAS thread (:func:`infoseek.experiments.bench.run_trial`): the summation
 order of a threaded product depends on the thread count. :func:`describe` reports what is in
 effect; the bench store records it in its manifest and ``infoseek verify`` prints it.
+The compiled kernels (:mod:`infoseek.envs.compiled`) are pinned there: one fixed numba target
+(``haswell`` on AVX2 machines, unless ``NUMBA_CPU_NAME`` says otherwise), no fast-math, no SVML
+(also set here for worker processes), no threaded reductions; their IEEE arithmetic gives the
+same bits whatever the target, which ``tests/test_cli.py`` checks by verifying a stored trial
+with ``NUMBA_CPU_NAME=generic``. :func:`describe` records numba's settings too.
+
 Setting ``INFOSEEK_NATIVE_NUMERICS=1`` leaves the environment as it is (faster on AVX-512
 machines; results then reproduce only on machines with the same kernels).
 
@@ -34,6 +40,7 @@ __all__ = ["PINNED", "describe", "pin"]
 PINNED: dict[str, str] = {
     "OPENBLAS_CORETYPE": "Haswell",
     "NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR",
+    "NUMBA_DISABLE_INTEL_SVML": "1",
 }
 
 
@@ -54,11 +61,14 @@ def pin() -> bool:
 
 
 def describe() -> dict[str, Any]:
-    """NumPy's version and SIMD targets in use, and the BLAS libraries with their kernels."""
+    """NumPy's version and SIMD targets in use, the BLAS libraries with their kernels, and
+    numba's code generation (:func:`infoseek.envs.compiled.describe`)."""
     import importlib
 
     import numpy as np
     from threadpoolctl import threadpool_info
+
+    from infoseek.envs import compiled
 
     try:
         umath = importlib.import_module("numpy._core._multiarray_umath")
@@ -79,5 +89,6 @@ def describe() -> dict[str, Any]:
             for info in threadpool_info()
             if info.get("user_api") == "blas"
         ],
+        "numba": compiled.describe(),
         "pinned": all(os.environ.get(key) == value for key, value in PINNED.items()),
     }

@@ -474,7 +474,7 @@ def test_verify_reruns_stored_trials_and_names_the_ones_not_reproduced(
 
 
 def _cli(args: list[str], **environ: str) -> subprocess.CompletedProcess[str]:
-    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE",)}
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE", "NUMBA_CPU_NAME")}
     env.update(environ)
     return subprocess.run(
         [sys.executable, "-m", "infoseek.experiments", *args],
@@ -486,9 +486,10 @@ def _cli(args: list[str], **environ: str) -> subprocess.CompletedProcess[str]:
 
 
 def test_stored_trials_verify_under_another_blas_kernel(tmp_path: Path) -> None:
-    """A trial written with the machine's own BLAS kernel choice verifies with another kernel
-    forced through OPENBLAS_CORETYPE: trial commands pin the numerical environment
-    (infoseek.experiments.numerics) before NumPy loads."""
+    """A stored trial verifies with another BLAS kernel asked for through OPENBLAS_CORETYPE
+    (trial commands pin the numerical environment of infoseek.experiments.numerics before
+    NumPy loads), and under a second numba target: the compiled kernels' IEEE arithmetic gives
+    the same bits whatever code numba generates."""
     out = tmp_path / "run"
     args = ["--planner", "pairwise", "--agents", "3", "--trials", "1", "--steps", "8"]
     args += ["--particles", "400", "--workers", "1", "--no-progress"]
@@ -501,6 +502,13 @@ def test_stored_trials_verify_under_another_blas_kernel(tmp_path: Path) -> None:
         checked = _cli(["verify", str(out), "--no-progress"], OPENBLAS_CORETYPE=kernel)
         assert checked.returncode == 0, checked.stdout + checked.stderr
         assert "1 reproduced exactly" in checked.stdout
+    numba = manifest["numerics"]["numba"]
+    assert numba["fastmath"] is False and numba["svml"] is False
+    other = "generic" if numba["cpu_name"] != "generic" else "x86-64"
+    checked = _cli(["verify", str(out), "--no-progress"], NUMBA_CPU_NAME=other)
+    assert checked.returncode == 0, checked.stdout + checked.stderr
+    assert f"target {other}" in checked.stdout
+    assert "1 reproduced exactly" in checked.stdout
 
 
 FIG1_STORE = Path(__file__).resolve().parents[1] / "experiments" / "results" / "fig1" / "store"
