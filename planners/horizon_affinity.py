@@ -19,8 +19,9 @@ by linear interpolation in a table :math:`T` of :math:`\log \rho` on the grid
   of ``H`` poses (a control sequence's ``H`` poses), summed over ``t`` in order
   (``((l_0 + l_1) + l_2) + ...``, as NumPy's sum over a leading axis), without the
   ``(G, H, N, N)`` temporaries. One row :math:`n` at a time: the table positions of the ``N``
-  differences (a loop the compiler vectorises), then the ``N`` interpolations added to the row.
-  Groups whose first pose's predictions equal the previous group's share that pose's lookups
+  differences split into ``j`` and ``f`` (a loop the compiler vectorises), then the ``N``
+  interpolations added to the row, from a table of pairs :math:`(T_j, T_{j+1} - T_j)` (the
+  slope is the difference the NumPy code took at every lookup, taken once). Groups whose first pose's predictions equal the previous group's share that pose's lookups
   (equal inputs, equal bits): the receding-horizon sequences that start with the same control.
 
 Every value is the one of the NumPy expressions these kernels replace, bit for bit (there are no
@@ -42,6 +43,7 @@ from numpy.typing import NDArray
 from infoseek.envs.compiled import kernel
 
 FloatArray = NDArray[np.float64]
+IndexArray = NDArray[np.int32]
 
 __all__ = ["AffinityTable", "log_affinity", "pair_term_sums"]
 
@@ -70,11 +72,15 @@ class AffinityTable:
             raise ValueError(f"table must be (J >= 2,) float64, got {table.dtype} {table.shape}")
         if not np.all(np.isfinite(table)):
             raise ValueError("table must be finite")
+        if table.size > np.iinfo(np.int32).max:
+            raise ValueError(f"table has {table.size} points, more than int32 positions")
         if not (math.isfinite(step) and step > 0):
             raise ValueError(f"step must be finite and > 0, got {step}")
         if period is not None and not (math.isfinite(period) and period > 0):
             raise ValueError(f"period must be finite and > 0, got {period}")
         self.table = table
+        #: ``(J, 2)`` ``(T_j, T_{j+1} - T_j)`` (the last slope, never used, 0).
+        self.pairs = np.ascontiguousarray(np.stack([table, np.append(np.diff(table), 0.0)], 1))
         self.delta0 = float(delta0)
         self.step = float(step)
         self.periodic = period is not None
@@ -85,8 +91,8 @@ class AffinityTable:
         self.upper = (table.size - 1) - 1e-9
 
     def arguments(self) -> tuple[FloatArray, float, float, float, float, float]:
-        """``(table, delta0, step, half, period, upper)`` in the kernels' argument order."""
-        return self.table, self.delta0, self.step, self.half, self.period, self.upper
+        """``(pairs, delta0, step, half, period, upper)`` in the kernels' argument order."""
+        return self.pairs, self.delta0, self.step, self.half, self.period, self.upper
 
 
 @kernel
@@ -102,15 +108,22 @@ def _floored_mod(x: float, period: float) -> float:
 
 
 @kernel
-def _clipped(position: float, upper: float) -> float:
-    """``np.clip(position, 0, upper)``: NumPy's maximum with 0 first (``-0.0`` -> ``+0.0``)."""
+def _store_position(
+    index: IndexArray, fraction: FloatArray, m: int, position: float, upper: float
+) -> None:
+    """``index[m], fraction[m] = j, f`` of the position clipped as ``np.clip(position, 0,
+    upper)`` (NumPy's maximum with 0 first: ``-0.0`` becomes ``+0.0``)."""
     position = position if position > 0.0 else 0.0
-    return position if position < upper else upper
+    position = position if position < upper else upper
+    j = np.int32(position)  # truncation, as astype(intp) of a non-negative position
+    index[m] = j
+    fraction[m] = position - j
 
 
 @kernel
 def _positions(
-    out: FloatArray,
+    index: IndexArray,
+    fraction: FloatArray,
     anchor: float,
     predictions: FloatArray,
     wrap: int,
@@ -120,30 +133,31 @@ def _positions(
     period: float,
     upper: float,
 ) -> None:
-    """``out[m]`` = the table position of ``anchor - predictions[m]`` (module docstring)."""
+    """The table position ``j + f`` of ``anchor - predictions[m]`` for every ``m`` (module
+    docstring), as ``index[m] = j`` and ``fraction[m] = f``."""
     if wrap == _SHIFT_WRAP:
-        for m in range(out.shape[0]):
+        for m in range(index.shape[0]):
             x = (anchor - predictions[m]) + half
             shift = period if x < 0.0 else (-period if x >= period else 0.0)
-            out[m] = _clipped((((x + shift) - half) - delta0) / step, upper)
+            _store_position(index, fraction, m, (((x + shift) - half) - delta0) / step, upper)
     elif wrap == _FMOD_WRAP:
-        for m in range(out.shape[0]):
+        for m in range(index.shape[0]):
             delta = _floored_mod((anchor - predictions[m]) + half, period) - half
-            out[m] = _clipped((delta - delta0) / step, upper)
+            _store_position(index, fraction, m, (delta - delta0) / step, upper)
     else:
-        for m in range(out.shape[0]):
-            out[m] = _clipped(((anchor - predictions[m]) - delta0) / step, upper)
+        for m in range(index.shape[0]):
+            _store_position(index, fraction, m, ((anchor - predictions[m]) - delta0) / step, upper)
 
 
 @kernel
-def _interpolate(row: FloatArray, positions: FloatArray, table: FloatArray, add: bool) -> None:
-    """``row[m] (+)= T_j + f (T_{j+1} - T_j)`` at ``positions[m] = j + f``."""
+def _interpolate(
+    row: FloatArray, index: IndexArray, fraction: FloatArray, pairs: FloatArray, add: bool
+) -> None:
+    """``row[m] (+)= T_j + f (T_{j+1} - T_j)`` at ``j, f = index[m], fraction[m]``, with
+    ``pairs[j] = (T_j, T_{j+1} - T_j)``."""
     for m in range(row.shape[0]):
-        position = positions[m]
-        index = int(position)
-        position -= index
-        low = table[index]
-        value = low + position * (table[index + 1] - low)
+        j = index[m]
+        value = pairs[j, 0] + fraction[m] * pairs[j, 1]
         row[m] = row[m] + value if add else value
 
 
@@ -159,7 +173,7 @@ def _wrap_mode(predictions: FloatArray, periodic: bool, period: float) -> int:
 def _pair_term_sums(
     predictions: FloatArray,
     periodic: bool,
-    table: FloatArray,
+    pairs: FloatArray,
     delta0: float,
     step: float,
     half: float,
@@ -169,23 +183,25 @@ def _pair_term_sums(
     n_groups, horizon, n = predictions.shape
     out = np.empty((n_groups, n, n))
     first = np.empty((n, n))  # the first pose's terms of the latest group that computed them
-    positions = np.empty(n)
+    index = np.empty(n, dtype=np.int32)
+    fraction = np.empty(n)
+    geometry = (delta0, step, half, period, upper)
     cached = -1
     for g in range(n_groups):
         head = predictions[g, 0]
         if cached < 0 or not np.all(head == predictions[cached, 0]):
             wrap = _wrap_mode(head, periodic, period)
             for i in range(n):
-                _positions(positions, head[i], head, wrap, delta0, step, half, period, upper)
-                _interpolate(first[i], positions, table, False)
+                _positions(index, fraction, head[i], head, wrap, *geometry)
+                _interpolate(first[i], index, fraction, pairs, False)
             cached = g
         out[g] = first
         for t in range(1, horizon):
             pose = predictions[g, t]
             wrap = _wrap_mode(pose, periodic, period)
             for i in range(n):
-                _positions(positions, pose[i], pose, wrap, delta0, step, half, period, upper)
-                _interpolate(out[g, i], positions, table, True)
+                _positions(index, fraction, pose[i], pose, wrap, *geometry)
+                _interpolate(out[g, i], index, fraction, pairs, True)
     return out
 
 
@@ -211,7 +227,7 @@ def pair_term_sums(predictions: FloatArray, affinity: AffinityTable) -> FloatArr
 def _log_affinity(
     delta: FloatArray,
     periodic: bool,
-    table: FloatArray,
+    pairs: FloatArray,
     delta0: float,
     step: float,
     half: float,
@@ -219,13 +235,14 @@ def _log_affinity(
     upper: float,
 ) -> FloatArray:
     out = np.empty_like(delta)
-    positions = np.empty_like(delta)
+    index = np.empty(delta.shape[0], dtype=np.int32)
+    fraction = np.empty_like(delta)
     for k in range(delta.shape[0]):
         value = delta[k]
         if periodic:
             value = _floored_mod(value + half, period) - half
-        positions[k] = _clipped((value - delta0) / step, upper)
-    _interpolate(out, positions, table, False)
+        _store_position(index, fraction, k, (value - delta0) / step, upper)
+    _interpolate(out, index, fraction, pairs, False)
     return out
 
 
