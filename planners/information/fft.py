@@ -22,9 +22,10 @@ base.BeliefMI`. Predictions outside a non-periodic domain are clamped to its edg
 from __future__ import annotations
 
 import math
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
+from numpy.typing import NDArray
 
 from infoseek.envs.sensors.base import Sensor
 from infoseek.planners.information.base import BeliefMI, FloatArray, JointEntropies, MIEstimator
@@ -132,8 +133,8 @@ class AdditiveFFTEstimator(MIEstimator):
         else:
             joint = full_grid_pair_entropies(
                 self.kernel,
-                self.predictions(belief, poses_a).astype(np.float64),
-                self.predictions(belief, poses_b).astype(np.float64),
+                _exact_dtype(self.predictions(belief, poses_a)),
+                _exact_dtype(self.predictions(belief, poses_b)),
                 belief.weights,
             )
         return joint - 2.0 * self.kernel.entropy
@@ -158,3 +159,9 @@ class AdditiveFFTEstimator(MIEstimator):
         return JointEntropies.from_entropies(
             entropy + log_cells, np.full(n_sets, k * self.kernel.entropy + log_cells)
         )
+
+
+def _exact_dtype(predictions: NDArray[Any]) -> NDArray[Any]:
+    """Float32 predictions as they are (the full-grid kernel widens them exactly), others as
+    float64."""
+    return predictions if predictions.dtype == np.float32 else predictions.astype(np.float64)

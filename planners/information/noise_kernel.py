@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 from infoseek.envs.sensors.base import Sensor
 from infoseek.planners.information.base import FloatArray
 from infoseek.planners.information.channels import entropy
+from infoseek.planners.information.moment_histograms import single_stencil_histograms
 from infoseek.planners.information.quadrature import observation_nodes
 
 __all__ = ["NoiseKernel", "grid_points", "noise_std"]
@@ -195,59 +196,33 @@ class NoiseKernel:
     def single_histograms(
         self, predictions: NDArray[Any], weights: FloatArray, uniform: bool
     ) -> FloatArray:
-        """``(B, Q)`` stencil histograms of ``(B, N)`` predictions from three moment bincounts.
+        """``(B, Q)`` stencil histograms of ``(B, N)`` predictions from three moment histograms
+        (one compiled pass, :mod:`~infoseek.planners.information.moment_histograms`).
 
         Args:
             predictions: ``(B, N)`` noise-free observations (float32 is enough: the positions
-                only need ~1e-7 of a node).
+                only need ~1e-7 of a node; other dtypes are rounded to float32).
             weights: ``(N,)`` normalised particle weights.
             uniform: Whether all weights are equal (unweighted mass histogram).
         """
-        q = self.n_points
-        n_batch, n = predictions.shape
-        position = self.positions(predictions, np.float32)
-        nearest = np.floor(position + np.float32(0.5))
-        position -= nearest  # now the offset delta in [-1/2, 1/2]
-        index = nearest.astype(np.intp)
-        width = q + 1  # node q is node 0 across the seam (or, clamped, the last node)
-        index += (np.arange(n_batch, dtype=np.intp) * width)[:, None]
-        index = index.ravel()
-        delta = position.ravel()
-        size = n_batch * width
-        if uniform:
-            mass = np.bincount(index, None, size) * (1.0 / n)
-            first = np.bincount(index, delta, size) * (1.0 / n)
-            second = np.bincount(index, delta * delta, size) * (1.0 / n)
-        else:
-            weighted = (position * weights).ravel()
-            mass = np.bincount(index, np.tile(weights, n_batch), size)
-            first = np.bincount(index, weighted, size)
-            weighted *= delta
-            second = np.bincount(index, weighted, size)
-        moments = np.stack([mass, first, second]).reshape(3, n_batch, width)
-        if self.periodic:
-            moments[..., 0] += moments[..., q]
-        else:
-            moments[..., q - 1] += moments[..., q]
-        mass, first, second = moments[..., :q]
-        centre = mass - second
-        up = 0.5 * (second + first)  # to node j + 1
-        down = 0.5 * (second - first)  # to node j - 1
-        if self.periodic:
-            return centre + np.roll(up, 1, axis=1) + np.roll(down, -1, axis=1)
-        histogram = centre
-        histogram[:, 1:] += up[:, :-1]
-        histogram[:, -1] += up[:, -1]  # clamped: the overhang stays on the edge node
-        histogram[:, :-1] += down[:, 1:]
-        histogram[:, 0] += down[:, 0]
-        return histogram
+        return single_stencil_histograms(
+            np.asarray(predictions, dtype=np.float32),
+            np.asarray(weights, dtype=np.float64),
+            uniform,
+            self.low,
+            self.spacing,
+            self.n_points,
+            self.periodic,
+        )
 
     def joint_histograms(
         self,
         assignments: Sequence[tuple[NDArray[np.intp], FloatArray]],
         particle_weights: FloatArray,
     ) -> FloatArray:
-        """Full-grid stencil histograms ``(B, Q, ..., Q)`` of ``k`` joint observations.
+        """Full-grid stencil histograms ``(B, Q, ..., Q)`` of ``k`` joint observations (one
+        ``numpy.bincount``; the pairs of the planners use the compiled
+        :func:`~infoseek.planners.information.pair_histograms.full_grid_pair_histograms`).
 
         Args:
             assignments: ``k`` pairs ``(nearest (*batch, N), weights (*batch, N, 3))`` from
@@ -296,50 +271,6 @@ class NoiseKernel:
                 histogram[tuple(into_high)] += histogram[tuple(last)]
         core = (slice(None),) + (slice(1, q + 1),) * k
         return histogram[core]
-
-    def pair_histograms(
-        self,
-        assignment_a: tuple[NDArray[np.intp], FloatArray],
-        assignment_b: tuple[NDArray[np.intp], FloatArray],
-        particle_weights: FloatArray,
-    ) -> FloatArray:
-        """Full-grid stencil histograms ``(C, M, Q, Q)`` of every pair of two pose sets.
-
-        Args:
-            assignment_a: ``(nearest (C, N), weights (C, N, 3))`` from :meth:`assign`.
-            assignment_b: ``(nearest (M, N), weights (M, N, 3))``.
-            particle_weights: ``(N,)`` normalised particle weights.
-
-        The nine entries of a particle's two stencils are consecutive in one ``bincount`` (a
-        3 x 3 block of a padded ``(Q + 2)^2`` grid per pair), then the guard rows and columns
-        are folded back as in :meth:`joint_histograms`.
-        """
-        (near_a, weights_a), (near_b, weights_b) = assignment_a, assignment_b
-        q = self.n_points
-        padded = q + 2
-        n_a, n = near_a.shape
-        n_b = near_b.shape[0]
-        base = near_a[:, None, :] * padded + near_b[None, :, :]  # (C, M, N): block corners
-        base += (np.arange(n_a * n_b, dtype=np.intp) * padded * padded).reshape(n_a, n_b, 1)
-        block = (np.arange(3)[:, None] * padded + np.arange(3)[None, :]).ravel()
-        index = base[..., None] + block  # (C, M, N, 9)
-        scaled_a = weights_a * particle_weights[:, None]
-        values = scaled_a[:, None, :, :, None] * weights_b[None, :, :, None, :]
-        histogram = np.asarray(
-            np.bincount(index.ravel(), values.ravel(), n_a * n_b * padded * padded),
-            dtype=np.float64,
-        ).reshape(n_a, n_b, padded, padded)
-        if self.periodic:
-            histogram[:, :, q, :] += histogram[:, :, 0, :]
-            histogram[:, :, 1, :] += histogram[:, :, q + 1, :]
-            histogram[:, :, :, q] += histogram[:, :, :, 0]
-            histogram[:, :, :, 1] += histogram[:, :, :, q + 1]
-        else:
-            histogram[:, :, 1, :] += histogram[:, :, 0, :]
-            histogram[:, :, q, :] += histogram[:, :, q + 1, :]
-            histogram[:, :, :, 1] += histogram[:, :, :, 0]
-            histogram[:, :, :, q] += histogram[:, :, :, q + 1]
-        return histogram[:, :, 1 : q + 1, 1 : q + 1]
 
     # -- convolution
     def smoothed_entropy(self, histograms: NDArray[Any], dtype: type = np.float64) -> FloatArray:

@@ -29,79 +29,44 @@ from numpy.typing import NDArray
 
 from infoseek.planners.information.base import FloatArray
 from infoseek.planners.information.channels import BATCH_BUDGET
-from infoseek.planners.information.noise_kernel import NoiseKernel, stencil_weights
+from infoseek.planners.information.noise_kernel import NoiseKernel
+from infoseek.planners.information.pair_histograms import (
+    full_grid_pair_histograms,
+    windowed_scatter_histograms,
+)
+from infoseek.planners.information.window_stencils import pose_windows as compiled_pose_windows
+from infoseek.planners.information.window_stencils import stencil_matrices
 
 __all__ = ["WindowSide", "full_grid_pair_entropies", "pose_windows", "windowed_pair_entropies"]
 
 _WINDOW_GEMM_CELLS = 24 * 24  # windowed pair histograms up to this size: matrix products
 _WINDOW_SCATTER_ELEMENTS = 1 << 20  # stencil entries per chunk of the windowed scatter histogram
-_FFT_CHUNK_ELEMENTS = 1 << 21  # stencil entries (N 9 per pair) handled per full-grid chunk
+_FFT_CHUNK_CELLS = 1 << 18  # full-grid cells (Q^2 per pair) convolved per chunk
 
 
 def pose_windows(
     kernel: NoiseKernel, predictions: NDArray[Any]
-) -> tuple[NDArray[np.int64], NDArray[np.intp], FloatArray, NDArray[np.int64]]:
-    """Windowed three-point stencils of each pose's predictions (see the module docstring).
+) -> tuple[NDArray[np.int64], NDArray[np.int32], NDArray[np.float32], NDArray[np.int64]]:
+    """Windowed three-point stencils of each pose's predictions (see the module docstring;
+    one compiled pass, :func:`~infoseek.planners.information.window_stencils.pose_windows`).
 
     Args:
         kernel: The noise kernel (grid of ``Q`` nodes, spacing ``h``).
-        predictions: ``(P, N)`` noise-free observations of ``P`` poses.
+        predictions: ``(P, N)`` noise-free observations of ``P`` poses (rounded to float32).
 
     Returns:
         ``(start (P,), targets (P, N, 3), weights (P, N, 3), width (P,))``: the global node
         of each pose's window origin, the window index of each stencil node (``0 <= targets <
-        width``), the stencil weights (identical to :meth:`NoiseKernel.assign`) and the number
-        of window nodes each pose needs.
+        width``), the stencil weights (identical to :meth:`NoiseKernel.assign` up to float32)
+        and the number of window nodes each pose needs.
     """
-    q = kernel.n_points
-    position = kernel.positions(predictions, np.float32)  # in [0, Q) or clamped
-    offsets = np.arange(-1, 2, dtype=np.int32)
-    if kernel.periodic:
-        # Arc containing every prediction, measured from the first one: exact (the shortest
-        # arc) whenever the predictions span less than half a period.
-        half = np.float32(0.5 * q)
-        deviation = position - position[:, :1]  # in (-Q, Q)
-        deviation[deviation < -half] += np.float32(q)
-        deviation[deviation >= half] -= np.float32(q)
-        lowest = deviation.min(axis=1).astype(np.float64) + position[:, 0]
-        start = np.floor(lowest).astype(np.int64) - 1
-        relative = position - start[:, None].astype(np.float32)  # in (-Q, Q + 2)
-        relative[relative < 0] += np.float32(q)
-        relative[relative >= q] -= np.float32(q)
-        nearest_float = np.floor(relative + np.float32(0.5))
-        delta = relative - nearest_float
-        nearest = nearest_float.astype(np.intp)
-        # When the predictions span more than half a period the arc measured from the first
-        # one can miss the lowest few: they wrap to ``relative < 1/2`` and their stencil would
-        # reach node -1. Moving such a pose's window one node down keeps every prediction at
-        # its place on the circle (node ``j`` of the window is global node ``start + j mod Q``).
-        wrapped = nearest.min(axis=1) == 0
-        if wrapped.any():
-            start[wrapped] -= 1
-            nearest[wrapped] += 1
-        targets = nearest.astype(np.int32)[..., None] + offsets
-    else:
-        nearest_float = np.floor(position + np.float32(0.5))
-        delta = position - nearest_float
-        nearest = nearest_float.astype(np.intp)
-        start = np.maximum(nearest.min(axis=1) - 1, 0).astype(np.int64)
-        targets = np.clip(nearest[..., None] + offsets, 0, q - 1) - start[:, None, None]
-        targets = targets.astype(np.int32)
-    weights = stencil_weights(delta)
-    width = targets.max(axis=(1, 2)).astype(np.int64) + 1
-    return start, targets, weights, width
-
-
-def _stencil_matrices(targets: NDArray[np.intp], weights: FloatArray, width: int) -> NDArray[Any]:
-    """Dense float32 stencil matrices ``(P * width, N)``: row ``p * width + x`` holds the weight
-    of every particle at window node ``x`` of pose ``p`` (the three nodes of a particle's
-    stencil are distinct rows, so every entry is assigned at most once)."""
-    n_poses, n = targets.shape[:2]
-    flat = (targets + (np.arange(n_poses, dtype=np.intp) * width)[:, None, None]) * n
-    flat += np.arange(n)[:, None]
-    dense = np.zeros(n_poses * width * n, dtype=np.float32)
-    dense[flat.ravel()] = weights.ravel()
-    return dense.reshape(n_poses * width, n)
+    return compiled_pose_windows(
+        np.asarray(predictions, dtype=np.float32),
+        kernel.low,
+        kernel.spacing,
+        kernel.n_points,
+        kernel.periodic,
+    )
 
 
 def _convolution_matrix(kernel: NoiseKernel, width: int) -> NDArray[np.float32]:
@@ -138,8 +103,8 @@ class WindowSide:
         self,
         kernel: NoiseKernel,
         start: NDArray[np.int64],
-        targets: NDArray[np.intp],
-        weights: FloatArray,
+        targets: NDArray[np.int32],
+        weights: NDArray[np.float32],
         widths: NDArray[np.int64],
     ) -> None:
         self.start, self.targets, self.weights, self.widths = start, targets, weights, widths
@@ -165,9 +130,10 @@ class WindowSide:
         return cls(kernel, *pose_windows(kernel, predictions))
 
     def stencils(self) -> NDArray[np.float32]:
-        """Dense stencil matrices (:func:`_stencil_matrices`), built once."""
+        """Dense ``(P W, N)`` float32 stencil matrices
+        (:func:`~infoseek.planners.information.window_stencils.stencil_matrices`), built once."""
         if not self._stencils:
-            self._stencils[False] = _stencil_matrices(self.targets, self.weights, self.width)
+            self._stencils[False] = stencil_matrices(self.targets, self.weights, self.width)
         return self._stencils[False]
 
 
@@ -199,7 +165,6 @@ def windowed_pair_entropies(
     chunk = max(1, BATCH_BUDGET // (4 * n_b * cells))
     if not gemm:
         chunk = min(chunk, max(1, _WINDOW_SCATTER_ELEMENTS // (9 * n_b * n)))
-        weighted_a = side_a.weights * particle_weights[:, None]
     joint = np.empty((n_a, n_b))
     for begin in range(0, n_a, chunk):
         end = min(begin + chunk, n_a)
@@ -211,16 +176,15 @@ def windowed_pair_entropies(
                 histogram *= np.float32(particle_weights[0])
             histogram = histogram.reshape(size, width_a, n_b, width_b).transpose(0, 2, 1, 3)
         else:
-            flat = (
-                (np.arange(size * n_b).reshape(size, n_b, 1, 1, 1) * width_a)
-                + side_a.targets[begin:end, None, :, :, None]
-            ) * width_b + side_b.targets[None, :, :, None, :]
-            weight = weighted_a[begin:end, None, :, :, None] * side_b.weights[None, :, :, None, :]
-            counts = np.asarray(
-                np.bincount(flat.ravel(), weight.ravel(), size * n_b * width_a * width_b),
-                dtype=np.float64,
+            histogram = windowed_scatter_histograms(
+                side_a.targets[begin:end],
+                side_a.weights[begin:end],
+                side_b.targets,
+                side_b.weights,
+                particle_weights,
+                width_a,
+                width_b,
             )
-            histogram = counts.reshape(size, n_b, width_a, width_b).astype(np.float32)
         # Linear convolution along both axes: (conv_a H conv_b^T), axes (c, m, out_b, out_a),
         # in float32 (probabilities to ~1e-7: far below any planning or test tolerance).
         smoothed = np.matmul(histogram, conv_b.T)  # (size, n_b, width_a, out_b)
@@ -236,28 +200,36 @@ def windowed_pair_entropies(
 
 def full_grid_pair_entropies(
     kernel: NoiseKernel,
-    predictions_a: FloatArray,
-    predictions_b: FloatArray,
+    predictions_a: NDArray[Any],
+    predictions_b: NDArray[Any],
     weights: FloatArray,
 ) -> FloatArray:
     """``(C, M)`` discrete joint entropies ``H(z_a, z_b)`` on the full ``Q x Q`` grid.
 
+    The histograms of a chunk of pairs come from one compiled pass
+    (:func:`~infoseek.planners.information.pair_histograms.full_grid_pair_histograms`), the
+    noise convolution and the entropies from :meth:`NoiseKernel.smoothed_entropy`.
+
     Args:
         kernel: The noise kernel.
-        predictions_a: ``(C, N)`` predictions of one side.
-        predictions_b: ``(M, N)`` predictions of the other side.
+        predictions_a: ``(C, N)`` predictions of one side (float32, or float64).
+        predictions_b: ``(M, N)`` predictions of the other side (the dtype of ``a``).
         weights: ``(N,)`` normalised particle weights.
     """
     n_a, n_b = predictions_a.shape[0], predictions_b.shape[0]
-    n = weights.shape[0]
     result = np.empty((n_a, n_b))
-    assignment_a = kernel.assign(predictions_a)
-    assignment_b = kernel.assign(predictions_b)
-    chunk = max(1, _FFT_CHUNK_ELEMENTS // (n_b * max(n * 9, kernel.length**2)))
+    chunk = max(1, _FFT_CHUNK_CELLS // (n_b * kernel.length**2))
     for start in range(0, n_a, chunk):
         stop = min(start + chunk, n_a)
-        part = (assignment_a[0][start:stop], assignment_a[1][start:stop])
-        histograms = kernel.pair_histograms(part, assignment_b, weights)
+        histograms = full_grid_pair_histograms(
+            predictions_a[start:stop],
+            predictions_b,
+            weights,
+            kernel.low,
+            kernel.spacing,
+            kernel.n_points,
+            kernel.periodic,
+        )
         flat = histograms.reshape((-1,) + histograms.shape[2:])
         result[start:stop] = kernel.smoothed_entropy(flat).reshape(stop - start, n_b)
     return result

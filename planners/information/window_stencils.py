@@ -1,0 +1,196 @@
+r"""Compiled window stencils of the ``fft`` estimator's windowed pair grids.
+
+:mod:`~infoseek.planners.information.windows` gives each pose a window of ``W_p`` nodes starting
+at integer node ``s_p`` and relabels every three-point stencil into it. Per pose ``p`` with
+float32 grid positions ``y_n`` (wrapped into ``[0, Q)`` or clamped):
+
+* periodic: ``d_n = y_n - y_1`` wrapped into ``[-Q/2, Q/2)`` (float32),
+  ``s_p = floor(float64(min_n d_n) + y_1) - 1``, ``r_n = y_n - s_p`` wrapped into ``[0, Q)``,
+  nearest window node ``j_n = floor(r_n + 1/2)``, offset ``delta_n = r_n - j_n``; a pose whose
+  lowest stencil would reach node ``-1`` (some ``j_n = 0``) moves its window one node down;
+* clamped: ``j_n = floor(y_n + 1/2)``, ``delta_n = y_n - j_n``, ``s_p = max(min_n j_n - 1, 0)``
+  and the stencil nodes ``min(max(j_n + u, 0), Q - 1) - s_p``.
+
+The stencil weights are the float32 quadratic weights of ``delta`` and ``W_p`` is one more than
+the largest window node. :func:`stencil_matrices` spreads the stencils of a pose set into the
+dense ``(P W, N)`` float32 matrices the pair histograms are matrix products of (row
+``p W + x``: the weight of every particle at window node ``x`` of pose ``p``; where two stencil
+entries of a particle share a node at a clamped edge the last one is kept, as the NumPy
+assignment it replaces kept it). Every operation is the float32 (or float64) operation of the
+NumPy code it replaces, in the same order, so the stencils are the same bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from infoseek.envs.compiled import kernel
+from infoseek.planners.information.kernel_arrays import require
+from infoseek.planners.information.moment_histograms import grid_positions
+
+__all__ = ["pose_windows", "stencil_matrices"]
+
+
+@kernel
+def _stencil_weights(delta: np.float32, weights: NDArray[np.float32], i: int) -> None:
+    """Float32 quadratic weights of nodes ``j - 1, j, j + 1`` for offset ``delta`` (row ``i``)."""
+    half = np.float32(0.5)
+    half_sq = half * delta * delta
+    weights[i, 0] = half_sq - half * delta
+    weights[i, 1] = np.float32(1.0) - np.float32(2.0) * half_sq
+    weights[i, 2] = half_sq + half * delta
+
+
+@kernel
+def _periodic_window(
+    position: NDArray[np.float32],
+    q: int,
+    targets: NDArray[np.int32],
+    weights: NDArray[np.float32],
+) -> int:
+    """Window of one pose on a periodic grid; fills ``targets``, ``weights``; returns ``s``."""
+    n = position.shape[0]
+    period = np.float32(q)
+    half = np.float32(0.5 * q)
+    first = position[0]
+    lowest = np.float32(np.inf)
+    for i in range(n):
+        deviation = position[i] - first
+        if deviation < -half:
+            deviation += period
+        if deviation >= half:
+            deviation -= period
+        lowest = min(lowest, deviation)
+    start = math.floor(np.float64(lowest) + np.float64(first)) - 1
+    origin = np.float32(start)
+    lowest_node = n + q
+    for i in range(n):
+        relative = position[i] - origin
+        if relative < 0:
+            relative += period
+        if relative >= period:
+            relative -= period
+        nearest = np.floor(relative + np.float32(0.5))
+        node = int(nearest)
+        lowest_node = min(lowest_node, node)
+        targets[i, 0] = node
+        _stencil_weights(relative - nearest, weights, i)
+    shift = 1 if lowest_node == 0 else 0
+    for i in range(n):
+        node = targets[i, 0] + shift
+        targets[i, 0], targets[i, 1], targets[i, 2] = node - 1, node, node + 1
+    return start - shift
+
+
+@kernel
+def _clamped_window(
+    position: NDArray[np.float32],
+    q: int,
+    targets: NDArray[np.int32],
+    weights: NDArray[np.float32],
+) -> int:
+    """Window of one pose on a clamped grid; fills ``targets``, ``weights``; returns ``s``."""
+    n = position.shape[0]
+    lowest_node = q
+    for i in range(n):
+        nearest = np.floor(position[i] + np.float32(0.5))
+        node = int(nearest)
+        lowest_node = min(lowest_node, node)
+        targets[i, 1] = node
+        _stencil_weights(position[i] - nearest, weights, i)
+    start = max(lowest_node - 1, 0)
+    for i in range(n):
+        node = targets[i, 1]
+        for u in range(3):
+            targets[i, u] = min(max(node + u - 1, 0), q - 1) - start
+    return start
+
+
+@kernel
+def _windows(
+    predictions: NDArray[np.float32],
+    low: np.float32,
+    scale: np.float32,
+    n_points: int,
+    periodic: bool,
+) -> tuple[NDArray[np.int64], NDArray[np.int32], NDArray[np.float32], NDArray[np.int64]]:
+    n_poses, n = predictions.shape
+    start = np.empty(n_poses, dtype=np.int64)
+    width = np.empty(n_poses, dtype=np.int64)
+    targets = np.empty((n_poses, n, 3), dtype=np.int32)
+    weights = np.empty((n_poses, n, 3), dtype=np.float32)
+    position = np.empty(n, dtype=np.float32)
+    for p in range(n_poses):
+        grid_positions(predictions[p], low, scale, n_points, periodic, position)
+        if periodic:
+            start[p] = _periodic_window(position, n_points, targets[p], weights[p])
+        else:
+            start[p] = _clamped_window(position, n_points, targets[p], weights[p])
+        widest = 0
+        for i in range(n):
+            for u in range(3):
+                widest = max(widest, targets[p, i, u])
+        width[p] = widest + 1
+    return start, targets, weights, width
+
+
+def pose_windows(
+    predictions: NDArray[np.float32], low: float, spacing: float, n_points: int, periodic: bool
+) -> tuple[NDArray[np.int64], NDArray[np.int32], NDArray[np.float32], NDArray[np.int64]]:
+    """Window stencils of ``(P, N)`` float32 predictions (module docstring).
+
+    Args:
+        predictions: ``(P, N)`` float32 noise-free observations.
+        low: Lower bound of the observation domain.
+        spacing: Node spacing.
+        n_points: ``Q``.
+        periodic: Whether the observation wraps.
+
+    Returns:
+        ``(start (P,), targets (P, N, 3) int32, weights (P, N, 3) float32, width (P,))``.
+
+    Raises:
+        TypeError, ValueError: ``predictions`` of another dtype or shape.
+    """
+    predictions = require(predictions, "predictions", np.float32, (None, None))
+    if predictions.shape[1] == 0:
+        raise ValueError("predictions must have at least one particle")
+    return _windows(  # type: ignore[no-any-return]
+        predictions, np.float32(low), np.float32(1.0 / spacing), int(n_points), bool(periodic)
+    )
+
+
+@kernel
+def _dense(
+    targets: NDArray[np.int32], weights: NDArray[np.float32], width: int
+) -> NDArray[np.float32]:
+    n_poses, n = targets.shape[:2]
+    dense = np.zeros((n_poses * width, n), dtype=np.float32)
+    for p in range(n_poses):
+        for i in range(n):
+            for u in range(3):
+                dense[p * width + targets[p, i, u], i] = weights[p, i, u]
+    return dense
+
+
+def stencil_matrices(
+    targets: NDArray[np.int32], weights: NDArray[np.float32], width: int
+) -> NDArray[np.float32]:
+    """Dense ``(P W, N)`` float32 stencil matrices of a pose set (module docstring).
+
+    Args:
+        targets: ``(P, N, 3)`` int32 window nodes, in ``[0, width)``.
+        weights: ``(P, N, 3)`` float32 stencil weights.
+        width: Rows per pose ``W``.
+
+    Raises:
+        TypeError, ValueError: An array of another dtype or shape, or a node outside the window.
+    """
+    targets = require(targets, "targets", np.int32, (None, None, 3))
+    weights = require(weights, "weights", np.float32, targets.shape)
+    if targets.size and (targets.min() < 0 or targets.max() >= width):
+        raise ValueError(f"targets must lie in [0, {width})")
+    return _dense(targets, weights, int(width))  # type: ignore[no-any-return]

@@ -1,0 +1,309 @@
+"""The compiled kernels of the MI engine against the NumPy computations they replace.
+
+Each reference below is the NumPy form the kernel replaced (``numpy.bincount`` histograms,
+fancy-index scatters, masked updates); the kernels must reproduce it bit for bit, since stored
+trials are re-run by ``infoseek verify`` and planner decisions depend on the last bits of the
+utilities. Wrong dtypes and shapes must be refused with an error naming the argument.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from infoseek.envs.sensors import BearingSensor, RangeSensor
+from infoseek.planners.information.moment_histograms import single_stencil_histograms
+from infoseek.planners.information.noise_kernel import NoiseKernel, grid_points
+from infoseek.planners.information.pair_histograms import (
+    full_grid_pair_histograms,
+    windowed_scatter_histograms,
+)
+from infoseek.planners.information.window_stencils import pose_windows, stencil_matrices
+
+SENSORS = [BearingSensor(sigma=0.1), RangeSensor(sigma=0.5, max_range=60.0)]
+
+
+def _same(a: Any, b: Any) -> bool:
+    a, b = np.asarray(a), np.asarray(b)
+    return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+def _kernel(sensor: Any) -> NoiseKernel:
+    return NoiseKernel(sensor, grid_points(sensor))
+
+
+def _predictions(kernel: NoiseKernel, rng: np.random.Generator, shape: tuple[int, int]) -> Any:
+    """float32 predictions over and slightly beyond the domain, with the edges themselves."""
+    low, high = kernel.low, kernel.low + kernel.n_points * kernel.spacing
+    if not kernel.periodic:
+        high = kernel.low + (kernel.n_points - 1) * kernel.spacing
+    values = rng.uniform(low - 0.3, high + 0.3, shape).astype(np.float32)
+    edges = np.array([low, high, np.nextafter(np.float32(high), 0), low - 1e-7], np.float32)
+    values[0, : min(shape[1], 4)] = edges[: min(shape[1], 4)]
+    return values
+
+
+# ------------------------------------------------------------------------------- references
+def _positions(kernel: NoiseKernel, predictions: Any, dtype: Any) -> Any:
+    position = np.asarray(predictions, dtype=dtype) - dtype(kernel.low)
+    position *= dtype(1.0 / kernel.spacing)
+    if kernel.periodic:
+        if position.size and (position.min() < 0.0 or position.max() >= kernel.n_points):
+            position %= dtype(kernel.n_points)
+    else:
+        np.clip(position, 0.0, kernel.n_points - 1.0, out=position)
+    return position
+
+
+def _stencil_weights(delta: Any) -> Any:
+    half_sq = 0.5 * delta * delta
+    weights = np.empty(delta.shape + (3,), dtype=np.result_type(delta.dtype, np.float32))
+    weights[..., 0] = half_sq - 0.5 * delta
+    weights[..., 1] = 1.0 - 2.0 * half_sq
+    weights[..., 2] = half_sq + 0.5 * delta
+    return weights
+
+
+def _reference_single(kernel: NoiseKernel, predictions: Any, weights: Any, uniform: bool) -> Any:
+    q = kernel.n_points
+    n_batch, n = predictions.shape
+    position = _positions(kernel, predictions, np.float32)
+    nearest = np.floor(position + np.float32(0.5))
+    position -= nearest
+    index = nearest.astype(np.intp) + (np.arange(n_batch) * (q + 1))[:, None]
+    index, delta, size = index.ravel(), position.ravel(), n_batch * (q + 1)
+    if uniform:
+        mass = np.bincount(index, None, size) * (1.0 / n)
+        first = np.bincount(index, delta, size) * (1.0 / n)
+        second = np.bincount(index, delta * delta, size) * (1.0 / n)
+    else:
+        weighted = (position * weights).ravel()
+        mass = np.bincount(index, np.tile(weights, n_batch), size)
+        first = np.bincount(index, weighted, size)
+        weighted *= delta
+        second = np.bincount(index, weighted, size)
+    moments = np.stack([mass, first, second]).reshape(3, n_batch, q + 1)
+    moments[..., 0 if kernel.periodic else q - 1] += moments[..., q]
+    mass, first, second = moments[..., :q]
+    centre, up, down = mass - second, 0.5 * (second + first), 0.5 * (second - first)
+    if kernel.periodic:
+        return centre + np.roll(up, 1, axis=1) + np.roll(down, -1, axis=1)
+    histogram = centre
+    histogram[:, 1:] += up[:, :-1]
+    histogram[:, -1] += up[:, -1]
+    histogram[:, :-1] += down[:, 1:]
+    histogram[:, 0] += down[:, 0]
+    return histogram
+
+
+def _reference_assign(kernel: NoiseKernel, predictions: Any) -> tuple[Any, Any]:
+    position = _positions(kernel, predictions, np.float64)
+    nearest_float = np.floor(position + 0.5)
+    nearest = nearest_float.astype(np.intp)
+    if kernel.periodic:
+        nearest[nearest >= kernel.n_points] -= kernel.n_points
+    return nearest, _stencil_weights(position - nearest_float)
+
+
+def _reference_pairs(kernel: NoiseKernel, predictions_a: Any, predictions_b: Any, w: Any) -> Any:
+    (near_a, weights_a), (near_b, weights_b) = (
+        _reference_assign(kernel, predictions_a),
+        _reference_assign(kernel, predictions_b),
+    )
+    q, padded = kernel.n_points, kernel.n_points + 2
+    n_a, n_b = near_a.shape[0], near_b.shape[0]
+    base = near_a[:, None, :] * padded + near_b[None, :, :]
+    base += (np.arange(n_a * n_b) * padded * padded).reshape(n_a, n_b, 1)
+    index = base[..., None] + (np.arange(3)[:, None] * padded + np.arange(3)[None, :]).ravel()
+    values = (weights_a * w[:, None])[:, None, :, :, None] * weights_b[None, :, :, None, :]
+    h = np.bincount(index.ravel(), values.ravel(), n_a * n_b * padded * padded)
+    h = h.reshape(n_a, n_b, padded, padded)
+    low, high = (q, 1) if kernel.periodic else (1, q)
+    h[:, :, low, :] += h[:, :, 0, :]
+    h[:, :, high, :] += h[:, :, q + 1, :]
+    h[:, :, :, low] += h[:, :, :, 0]
+    h[:, :, :, high] += h[:, :, :, q + 1]
+    return h[:, :, 1 : q + 1, 1 : q + 1]
+
+
+def _reference_windows(kernel: NoiseKernel, predictions: Any) -> tuple[Any, Any, Any, Any]:
+    q = kernel.n_points
+    position = _positions(kernel, predictions, np.float32)
+    offsets = np.arange(-1, 2, dtype=np.int32)
+    if kernel.periodic:
+        half = np.float32(0.5 * q)
+        deviation = position - position[:, :1]
+        deviation[deviation < -half] += np.float32(q)
+        deviation[deviation >= half] -= np.float32(q)
+        lowest = deviation.min(axis=1).astype(np.float64) + position[:, 0]
+        start = np.floor(lowest).astype(np.int64) - 1
+        relative = position - start[:, None].astype(np.float32)
+        relative[relative < 0] += np.float32(q)
+        relative[relative >= q] -= np.float32(q)
+        nearest_float = np.floor(relative + np.float32(0.5))
+        delta = relative - nearest_float
+        nearest = nearest_float.astype(np.intp)
+        wrapped = nearest.min(axis=1) == 0
+        start[wrapped] -= 1
+        nearest[wrapped] += 1
+        targets = nearest.astype(np.int32)[..., None] + offsets
+    else:
+        nearest_float = np.floor(position + np.float32(0.5))
+        delta = position - nearest_float
+        nearest = nearest_float.astype(np.intp)
+        start = np.maximum(nearest.min(axis=1) - 1, 0).astype(np.int64)
+        targets = np.clip(nearest[..., None] + offsets, 0, q - 1) - start[:, None, None]
+        targets = targets.astype(np.int32)
+    width = targets.max(axis=(1, 2)).astype(np.int64) + 1
+    return start, targets, _stencil_weights(delta), width
+
+
+def _reference_dense(targets: Any, weights: Any, width: int) -> Any:
+    n_poses, n = targets.shape[:2]
+    flat = (targets + (np.arange(n_poses) * width)[:, None, None]) * n + np.arange(n)[:, None]
+    dense = np.zeros(n_poses * width * n, dtype=np.float32)
+    dense[flat.ravel()] = weights.ravel()
+    return dense.reshape(n_poses * width, n)
+
+
+def _reference_scatter(side_a: tuple[Any, ...], side_b: tuple[Any, ...], w: Any) -> Any:
+    (targets_a, weights_a, width_a), (targets_b, weights_b, width_b) = side_a, side_b
+    n_a, n_b = targets_a.shape[0], targets_b.shape[0]
+    flat = (
+        (np.arange(n_a * n_b).reshape(n_a, n_b, 1, 1, 1) * width_a) + targets_a[:, None, :, :, None]
+    ) * width_b + targets_b[None, :, :, None, :]
+    weight = (weights_a * w[:, None])[:, None, :, :, None] * weights_b[None, :, :, None, :]
+    counts = np.bincount(flat.ravel(), weight.ravel(), n_a * n_b * width_a * width_b)
+    return counts.reshape(n_a, n_b, width_a, width_b).astype(np.float32)
+
+
+# -------------------------------------------------------------------------------------- tests
+@pytest.mark.parametrize("sensor", SENSORS, ids=["bearing", "range"])
+@pytest.mark.parametrize("n", [1, 7, 2000])
+@pytest.mark.parametrize("uniform", [True, False])
+def test_single_histograms_equal_the_bincount_form_bit_for_bit(sensor, n, uniform):
+    kernel = _kernel(sensor)
+    rng = np.random.default_rng(n)
+    predictions = _predictions(kernel, rng, (5, n))
+    weights = np.full(n, 1.0 / n) if uniform else rng.gamma(1.0, size=n)
+    weights = weights / weights.sum()
+    expected = _reference_single(kernel, predictions, weights, uniform)
+    histograms = single_stencil_histograms(
+        predictions, weights, uniform, kernel.low, kernel.spacing, kernel.n_points, kernel.periodic
+    )
+    assert _same(histograms, expected)
+    assert _same(kernel.single_histograms(predictions, weights, uniform), expected)
+    # inside the domain only (no wrap pass), and the mass is conserved
+    inside = predictions[1:]
+    if kernel.periodic:
+        inside = np.clip(inside, kernel.low, np.float32(np.pi) - np.float32(1e-3))
+    assert _same(
+        kernel.single_histograms(inside, weights, uniform),
+        _reference_single(kernel, inside, weights, uniform),
+    )
+    np.testing.assert_allclose(histograms.sum(axis=1), 1.0, rtol=1e-12)
+
+
+@pytest.mark.parametrize("sensor", SENSORS, ids=["bearing", "range"])
+@pytest.mark.parametrize("n", [1, 5, 300])
+def test_full_grid_pair_histograms_equal_the_bincount_form_bit_for_bit(sensor, n):
+    kernel = _kernel(sensor)
+    rng = np.random.default_rng(10 + n)
+    predictions_a = _predictions(kernel, rng, (4, n))
+    predictions_b = _predictions(kernel, rng, (3, n))
+    weights = rng.gamma(1.0, size=n)
+    weights /= weights.sum()
+    args = (kernel.low, kernel.spacing, kernel.n_points, kernel.periodic)
+    for a, b in (
+        (predictions_a, predictions_b),
+        (predictions_a.astype(np.float64) * 1.01, predictions_b.astype(np.float64)),
+    ):
+        expected = _reference_pairs(kernel, a, b, weights)
+        assert _same(full_grid_pair_histograms(a, b, weights, *args), expected)
+
+
+@pytest.mark.parametrize("sensor", SENSORS, ids=["bearing", "range"])
+@pytest.mark.parametrize("spread", [0.01, 0.3, 2.0, 10.0])
+def test_pose_windows_and_stencil_matrices_equal_the_numpy_form_bit_for_bit(sensor, spread):
+    kernel = _kernel(sensor)
+    rng = np.random.default_rng(int(spread * 100))
+    low, high = float(sensor.domain.low[0]), float(sensor.domain.high[0])
+    predictions = rng.uniform(low, high, (6, 1)) + rng.normal(0.0, spread, (6, 400))
+    if kernel.periodic:
+        predictions = (predictions - low) % (high - low) + low
+    predictions = predictions.astype(np.float32)
+    predictions[1, :2] = [high - 1e-7, low]
+    expected = _reference_windows(kernel, predictions)
+    windows = pose_windows(
+        predictions, kernel.low, kernel.spacing, kernel.n_points, kernel.periodic
+    )
+    assert all(_same(got, want) for got, want in zip(windows, expected, strict=True))
+    width = int(windows[3].max())
+    assert _same(
+        stencil_matrices(windows[1], windows[2], width), _reference_dense(*expected[1:3], width)
+    )
+
+
+def test_dense_stencils_keep_the_last_of_two_entries_at_a_clamped_edge():
+    targets = np.array([[[0, 0, 1], [2, 3, 3]]], dtype=np.int32)  # clamped stencils
+    weights = np.array([[[0.25, 0.5, 0.25], [0.125, 0.75, 0.125]]], dtype=np.float32)
+    dense = stencil_matrices(targets, weights, 4)
+    assert _same(dense, _reference_dense(targets, weights, 4))
+    assert dense[0, 0] == np.float32(0.5) and dense[3, 1] == np.float32(0.125)
+
+
+def test_windowed_scatter_histograms_equal_the_bincount_form_bit_for_bit():
+    kernel = _kernel(SENSORS[0])
+    rng = np.random.default_rng(4)
+    n = 250
+    weights = rng.gamma(1.0, size=n)
+    weights /= weights.sum()
+    sides = []
+    for centre, count in ((0.3, 3), (1.4, 2)):
+        predictions = (centre + rng.normal(0.0, 0.4, (count, n))).astype(np.float32)
+        _, targets, stencils, width = pose_windows(
+            predictions, kernel.low, kernel.spacing, kernel.n_points, kernel.periodic
+        )
+        sides.append((targets, stencils, int(width.max())))
+    expected = _reference_scatter(sides[0], sides[1], weights)
+    (targets_a, weights_a, width_a), (targets_b, weights_b, width_b) = sides
+    got = windowed_scatter_histograms(
+        targets_a, weights_a, targets_b, weights_b, weights, width_a, width_b
+    )
+    assert _same(got, expected)
+
+
+def test_kernels_refuse_wrong_dtypes_and_shapes_naming_the_argument():
+    kernel = _kernel(SENSORS[0])
+    args = (kernel.low, kernel.spacing, kernel.n_points, kernel.periodic)
+    predictions = np.zeros((2, 10), dtype=np.float32)
+    weights = np.full(10, 0.1)
+    with pytest.raises(TypeError, match="predictions must have dtype float32"):
+        single_stencil_histograms(predictions.astype(np.float64), weights, False, *args)
+    with pytest.raises(TypeError, match="weights must have dtype float64"):
+        single_stencil_histograms(predictions, weights.astype(np.float32), False, *args)
+    with pytest.raises(ValueError, match=r"weights must have shape \(10\)"):
+        single_stencil_histograms(predictions, weights[:5], False, *args)
+    with pytest.raises(TypeError, match="predictions_b must have dtype float32"):
+        full_grid_pair_histograms(predictions, predictions.astype(np.float64), weights, *args)
+    with pytest.raises(ValueError, match="predictions_b must have shape"):
+        full_grid_pair_histograms(predictions, predictions[:, :4], weights, *args)
+    with pytest.raises(TypeError, match="predictions must be a numpy array"):
+        pose_windows([[0.0]], *args)  # type: ignore[arg-type]
+    targets = np.zeros((1, 10, 3), dtype=np.int32)
+    with pytest.raises(TypeError, match="targets must have dtype int32"):
+        stencil_matrices(targets.astype(np.int64), np.zeros((1, 10, 3), np.float32), 2)
+    with pytest.raises(ValueError, match=r"targets must lie in \[0, 2\)"):
+        stencil_matrices(targets + 2, np.zeros((1, 10, 3), np.float32), 2)
+    with pytest.raises(ValueError, match="weights_b must have shape"):
+        windowed_scatter_histograms(
+            targets,
+            np.zeros((1, 10, 3), np.float32),
+            targets,
+            np.zeros((2, 10, 3), np.float32),
+            weights,
+            2,
+            2,
+        )
