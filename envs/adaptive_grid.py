@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 
 from infoseek.envs.compiled import kernel, pairwise_sum
 from infoseek.envs.log_weights import is_uniform
+from infoseek.envs.order_statistics import order_statistic_pair, stable_argsort
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -101,9 +102,8 @@ def _box(
     """Weighted ``tail`` and ``1 - tail`` quantiles of one scaled coordinate (``ranks``: those
     of equal weights, ``None`` for unequal ones)."""
     if ranks is not None:
-        low_k, high_k = ranks
-        return np.partition(column, low_k)[low_k], np.partition(column, high_k)[high_k]
-    order = np.argsort(column, kind="mergesort")
+        return order_statistic_pair(column, ranks[0], ranks[1])
+    order = stable_argsort(column)
     cumulative = np.empty(column.shape[0])
     running = 0.0
     for i in range(order.shape[0]):

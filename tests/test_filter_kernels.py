@@ -10,6 +10,7 @@ import pytest
 from scipy.special import logsumexp
 
 from infoseek.envs.log_weights import bayes_step, ess_rows, logsumexp_rows, normalised
+from infoseek.envs.order_statistics import order_statistic_pair, stable_argsort
 from infoseek.envs.resampling import systematic_resample_rows
 from infoseek.envs.roughening import coordinate_ranges, jitter
 from infoseek.envs.sensors import BearingSensor
@@ -170,3 +171,17 @@ def test_summed_bearing_likelihood_is_the_sum_of_received_wrapped_normals(sigma:
     assert np.array_equal(again, total)
     single = sensor.log_likelihood(z[1], poses[1], particles[per])
     assert np.array_equal(np.where(received[per][:, None], single, 0.0).sum(axis=0), total[per])
+
+
+def test_radix_argsort_is_numpys_stable_argsort_and_selection_is_sorting() -> None:
+    rng = np.random.default_rng(5)
+    for n in (0, 1, 2, 33, 500, 2000):
+        values = rng.normal(0.0, 1.0, n) * np.exp(rng.uniform(-300.0, 300.0, n))
+        values[: n // 4] = np.round(values[: n // 4], 0)  # ties, zeros of both signs
+        values[: n // 8] *= -0.0
+        assert np.array_equal(stable_argsort(values), np.argsort(values, kind="stable"))
+        if n:
+            ordered = np.sort(values)
+            for low, high in ((0, n - 1), (min(1, n - 1), max(n - 3, 1)), (n // 3, n // 2)):
+                low, high = min(low, high, n - 1), min(max(low, high), n - 1)
+                assert order_statistic_pair(values, low, high) == (ordered[low], ordered[high])
