@@ -13,13 +13,14 @@ sums :math:`S_0`, then the ``K`` partner plans' in order, added in that order), 
 exponents stay in the cache:
 
 1. one compiled pass (:func:`_exponents`) forms the sums ``L``, adds ``log w``, takes the row
-   maximum and the shift, and packs the exponents that do not underflow
-   (:math:`x \ge -746`) into one array;
-2. NumPy's ``exp`` of the packed exponents;
-3. a compiled pass (:func:`_row_sums`) puts each row back together (``0.0`` for an
-   underflowing exponent: :math:`e^x < 2^{-1076}` rounds to zero in every ``exp``) and sums it
-   in NumPy's pairwise order (:func:`~infoseek.envs.compiled.pairwise_sum`);
-4. NumPy's ``log`` of the sums, plus ``M``.
+   maximum and the shift, and counts the exponents that underflow (:math:`x < -746`:
+   :math:`e^x < 2^{-1076}` rounds to zero in every ``exp``);
+2. without underflows (the usual case once the belief has narrowed), NumPy's ``exp`` of the
+   exponents and their sum over ``m`` (NumPy's pairwise order); otherwise the exponents that
+   do not underflow are packed into one array (:func:`_pack`), NumPy takes their ``exp``, and
+   a compiled pass (:func:`_row_sums`) puts each row back together with ``0.0`` for the others
+   and sums it in NumPy's pairwise order (:func:`~infoseek.envs.compiled.pairwise_sum`);
+3. NumPy's ``log`` of the sums, plus ``M``.
 
 The exponential and the logarithm stay NumPy calls: in the pinned numerical environment they
 are the C library's functions, as a kernel's would be, and elsewhere NumPy's SIMD loops are
@@ -54,16 +55,15 @@ def _exponents(
     start: int,
     out: FloatArray,
     tops: FloatArray,
-    packed: FloatArray,
 ) -> int:
     """``out[c - start, n, m] = L(n, m) + log w_m - M_n`` and ``tops[c, n] = M_n`` for the
-    candidates ``c = start .. start + len(out) - 1``; the exponents ``>= EXP_UNDERFLOW`` are
-    also copied, in order, to the front of ``packed``. Returns how many.
+    candidates ``c = start .. start + len(out) - 1``. Returns how many exponents underflow.
 
     Row ``n`` of every candidate of the chunk in turn: the partners' rows ``n`` stay in the
     first-level cache while the candidates' rows stream past.
     """
     n = own.shape[2]
+    underflows = 0
     for i in range(own.shape[1]):
         for c in range(start, start + out.shape[0]):
             row = out[c - start, i]
@@ -80,12 +80,20 @@ def _exponents(
                 top = shifted if shifted > top else top
             for m in range(n):
                 row[m] -= top
+                underflows += row[m] < EXP_UNDERFLOW
             tops[c, i] = top
-    flat = out.reshape(-1)
+    return underflows
+
+
+@kernel
+def _pack(exponents: FloatArray, packed: FloatArray) -> int:
+    """Copy the exponents ``>= EXP_UNDERFLOW`` (and NaN) in order to the front of ``packed``;
+    returns how many."""
+    flat = exponents.reshape(-1)
     count = 0
     for j in range(flat.shape[0]):  # without branches: always write, advance when kept
         packed[count] = flat[j]
-        count += not flat[j] < EXP_UNDERFLOW  # NaN is kept (and propagates)
+        count += not flat[j] < EXP_UNDERFLOW
     return count
 
 
@@ -135,10 +143,17 @@ def bound_rows(own: FloatArray, partners: FloatArray, log_weights: FloatArray) -
     tops = np.empty((n_candidates, n))
     sums = np.empty((n_candidates, n))
     exponents = np.empty((min(CHUNK_CANDIDATES, n_candidates), n, n))
-    packed = np.empty(exponents.size + 1)  # + 1: _row_sums may read one past the last kept
+    packed = np.empty(0)
     for start in range(0, n_candidates, CHUNK_CANDIDATES):
-        chunk = exponents[: min(n_candidates, start + CHUNK_CANDIDATES) - start]
-        kept = packed[: _exponents(own, partners, log_weights, start, chunk, tops, packed)]
+        stop = min(n_candidates, start + CHUNK_CANDIDATES)
+        chunk = exponents[: stop - start]
+        if _exponents(own, partners, log_weights, start, chunk, tops) == 0:
+            np.exp(chunk, out=chunk)
+            np.sum(chunk, axis=-1, out=sums[start:stop])
+            continue
+        if packed.size == 0:
+            packed = np.empty(exponents.size + 1)  # + 1: _row_sums may read one past the last
+        kept = packed[: _pack(chunk, packed)]
         np.exp(kept, out=kept)
         _row_sums(chunk, packed, start, sums)
     return np.log(sums) + tops
