@@ -503,10 +503,7 @@ class BeliefBatch:
             std = self.roughening * spread * n ** (-1.0 / d)
         else:
             std = move_scale * np.maximum(spread, 1e-12 * width)
-        noise = np.empty((r_rows, n, d))
-        for row, rng in enumerate(rngs):
-            rng.standard_normal(out=noise[row])
-        return jitter(particles, noise, std, space.low_array, space.high_array, space.periodic_mask)
+        return jitter(particles, std, rngs, space.low_array, space.high_array, space.periodic_mask)
 
     def _spread(self, columns: FloatArray, move_scale: float | None) -> FloatArray:
         """``(R, d)`` spread of particles given as ``(R, d, N)`` columns: each coordinate's range

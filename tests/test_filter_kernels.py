@@ -119,9 +119,9 @@ def test_jitter_reflects_and_wraps_as_the_target_space_does() -> None:
     low, high = np.array([0.0, -1.0, 0.0]), np.array([40.0, 3.0, math.pi])
     periodic = np.array([False, False, True])
     particles = rng.uniform(low, high, size=(4, 500, 3))
-    noise = rng.standard_normal((4, 500, 3))
     std = rng.uniform(0.0, 30.0, size=(4, 3))
-    out = jitter(particles, noise, std, low, high, periodic)
+    out = jitter(particles, std, [np.random.default_rng(r) for r in range(4)], low, high, periodic)
+    noise = np.stack([np.random.default_rng(r).standard_normal((500, 3)) for r in range(4)])
     moved = noise * std[:, None, :] + particles
     expected = moved.copy()
     for j in (0, 1):
