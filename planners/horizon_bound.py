@@ -16,11 +16,10 @@ exponents stay in the cache:
    maximum and the shift, and counts the exponents that underflow (:math:`x < -746`:
    :math:`e^x < 2^{-1076}` rounds to zero in every ``exp``);
 2. without underflows (the usual case once the belief has narrowed), NumPy's ``exp`` of the
-   exponents and their sum over ``m`` (NumPy's pairwise order); otherwise the exponents that
-   do not underflow are packed into one array (:func:`_pack`), NumPy takes their ``exp``, and
-   a compiled pass (:func:`_row_sums`) puts each row back together with ``0.0`` for the others
-   and sums it in NumPy's pairwise order (:func:`~infoseek.envs.compiled.pairwise_sum`);
-3. NumPy's ``log`` of the sums, plus ``M``.
+   exponents in place; otherwise the exponents that do not underflow are packed into one
+   array (:func:`_pack`), NumPy takes their ``exp``, and a compiled pass (:func:`_unpack`)
+   puts them back in place with ``0.0`` for the others;
+3. NumPy's sums over ``m`` (its pairwise order), its ``log`` of the sums, plus ``M``.
 
 The exponential and the logarithm stay NumPy calls: in the pinned numerical environment they
 are the C library's functions, as a kernel's would be, and elsewhere NumPy's SIMD loops are
@@ -34,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from infoseek.envs.compiled import kernel, pairwise_sum
+from infoseek.envs.compiled import kernel
 
 FloatArray = NDArray[np.float64]
 
@@ -98,18 +97,15 @@ def _pack(exponents: FloatArray, packed: FloatArray) -> int:
 
 
 @kernel
-def _row_sums(exponents: FloatArray, packed: FloatArray, start: int, sums: FloatArray) -> None:
-    """``sums[c, n] = sum_m exp(exponents[c - start, n, m])`` (NumPy's pairwise order), the
-    exponentials read in order from ``packed`` and ``0.0`` for underflowing exponents."""
-    row = np.empty(exponents.shape[2])
+def _unpack(exponents: FloatArray, packed: FloatArray) -> None:
+    """Replace every exponent by its exponential: the next value of ``packed`` where the
+    exponent does not underflow, ``0.0`` where it does (``packed`` has one slot of slack)."""
+    flat = exponents.reshape(-1)
     count = 0
-    for c in range(exponents.shape[0]):
-        for i in range(exponents.shape[1]):
-            for m in range(row.shape[0]):
-                kept = not exponents[c, i, m] < EXP_UNDERFLOW
-                row[m] = packed[count] if kept else 0.0  # packed has one slot of slack
-                count += kept
-            sums[start + c, i] = pairwise_sum(row)
+    for j in range(flat.shape[0]):  # without branches
+        kept = not flat[j] < EXP_UNDERFLOW
+        flat[j] = packed[count] if kept else 0.0
+        count += kept
 
 
 def bound_rows(own: FloatArray, partners: FloatArray, log_weights: FloatArray) -> FloatArray:
@@ -152,10 +148,11 @@ def bound_rows(own: FloatArray, partners: FloatArray, log_weights: FloatArray) -
             np.sum(chunk, axis=-1, out=sums[start:stop])
             continue
         if packed.size == 0:
-            packed = np.empty(exponents.size + 1)  # + 1: _row_sums may read one past the last
+            packed = np.empty(exponents.size + 1)  # + 1: _unpack may read one past the last
         kept = packed[: _pack(chunk, packed)]
         np.exp(kept, out=kept)
-        _row_sums(chunk, packed, start, sums)
+        _unpack(chunk, packed)
+        np.sum(chunk, axis=-1, out=sums[start:stop])
     return np.log(sums) + tops
 
 
