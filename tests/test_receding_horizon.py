@@ -100,3 +100,52 @@ def test_closed_loop_beats_random_flight_and_is_seeded() -> None:
     flown = [_episode_mass(random, seed) for seed in range(3)]
     assert np.mean(planned) > np.mean(flown) + 0.05, (planned, flown)
     assert _episode_mass(horizon, 0) == planned[0]
+
+
+def _numpy_terms(info: HorizonInformation, particles, poses) -> np.ndarray:
+    """``(P, N, N)`` pair terms at ``(P, 2)`` poses: the NumPy code before the kernels."""
+    predictions = np.asarray(info.sensor.predict(poses, particles), dtype=np.float64)[..., 0]
+    delta = predictions[:, :, None] - predictions[:, None, :]
+    delta = np.mod(delta + 0.5 * info.period, info.period) - 0.5 * info.period
+    position = (delta - info._delta0) / info._step
+    np.clip(position, 0.0, info._table.size - 1 - 1e-9, out=position)
+    index = position.astype(np.intp)
+    position -= index
+    low = info._table[index]
+    return low + position * (info._table[index + 1] - low)
+
+
+def _numpy_value(log_rho: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    shifted = log_rho + np.log(weights)[None, :]
+    top = shifted.max(axis=-1, keepdims=True)
+    return -((np.log(np.exp(shifted - top).sum(axis=-1)) + top[..., 0]) @ weights)
+
+
+def test_sequence_utilities_are_the_bound_of_the_summed_pose_terms(rng) -> None:
+    """The planner's cached utility against the NumPy form of the planner before the kernels,
+    bit for bit, and unchanged by a caller's edit of a returned array."""
+    from infoseek.planners.receding_horizon import _SequenceUtilities
+    from infoseek.planners.utilities import PlanningBelief
+
+    info = HorizonInformation(BearingSensor(0.1))
+    n, n_seq, horizon = 20, 6, 3
+    beliefs = [
+        PlanningBelief(rng.uniform(5.0, 35.0, (n, 2)), np.full(n, 1.0 / n)) for _ in range(3)
+    ]
+    tracks = rng.uniform(0.0, 40.0, (3, n_seq, horizon, 2))
+    tracks[:, 1, 0] = tracks[:, 0, 0]  # sequences sharing their first pose
+    utility = _SequenceUtilities(info, beliefs, tracks)
+    plans = np.array([4, 1, 2])
+    for i, belief in enumerate(beliefs):
+        terms = _numpy_terms(info, belief.particles, tracks[i].reshape(-1, 2))
+        total = terms.reshape(n_seq, horizon, n, n).sum(axis=1)
+        alone = _numpy_value(total, belief.weights)
+        for j in range(3):
+            if j != i:
+                total = total + _numpy_terms(info, belief.particles, tracks[j, plans[j]]).sum(0)
+        expected = _numpy_value(total, belief.weights)
+        assert utility.alone(i).tobytes() == alone.tobytes()
+        first = utility(i, plans)
+        assert first.tobytes() == expected.tobytes()
+        first[:] = 0.0  # the caller's copy: the cache keeps its own
+        assert utility(i, plans).tobytes() == expected.tobytes()
