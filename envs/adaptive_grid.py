@@ -84,7 +84,7 @@ def _equal_weight_ranks(n: int, weight: float, tail: float) -> tuple[int, int]:
 def _unroll(column: FloatArray) -> None:
     """Shift angles in ``[0, 1)`` so that the largest gap between them is at the wrap."""
     n = column.shape[0]
-    ordered = np.sort(column)
+    ordered = column[stable_argsort(column)]
     best, first = -math.inf, 0
     for i in range(n):
         gap = (ordered[i + 1] if i + 1 < n else ordered[0] + 1.0) - ordered[i]

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from infoseek.envs.circular import circular_means, circular_ranges
 from infoseek.envs.entropy import (
     adaptive_histogram_entropy_rows,
     fixed_grid_entropy,
@@ -112,17 +113,6 @@ def _angle_scale(space: TargetSpace) -> tuple[np.ndarray, np.ndarray, np.ndarray
     period = space.high_array[idx] - low
     harmonic = np.where(space.axial_mask[idx], 2.0, 1.0)
     return idx, low, period, harmonic
-
-
-def angle_means(space: TargetSpace, angles: FloatArray, weights: FloatArray) -> FloatArray:
-    """Circular/axial weighted means of one belief's ``(N, k)`` periodic coordinates."""
-    _, low, period, harmonic = _angle_scale(space)
-    phase = (angles - low) * (2.0 * np.pi * harmonic / period)
-    c = weights @ np.cos(phase)
-    s = weights @ np.sin(phase)
-    mean_phase = np.mod(np.arctan2(s, c), 2.0 * np.pi)
-    mean = low + mean_phase * period / (2.0 * np.pi * harmonic)
-    return np.where(mean >= low + period / harmonic, low, mean)
 
 
 class BeliefBatch:
@@ -491,11 +481,14 @@ class BeliefBatch:
         tempering-move proposal: ``move_scale`` times each coordinate's standard deviation."""
         space = self.space
         r_rows, n, d = particles.shape
-        idx, _, period, harmonic = _angle_scale(space)
-        if move_scale is None and not idx.size:
+        if move_scale is None:
             spread = coordinate_ranges(particles)
+            idx, low, period, harmonic = _angle_scale(space)
+            if idx.size:
+                angles = particles[:, :, idx]
+                spread[:, idx] = circular_ranges(angles, low, period, harmonic)
         else:
-            spread = self._spread(np.ascontiguousarray(particles.transpose(0, 2, 1)), move_scale)
+            spread = self._spread(np.ascontiguousarray(particles.transpose(0, 2, 1)))
         width = space.high_array - space.low_array
         if move_scale is None:
             # floor: a fully collapsed set (spread 0) would otherwise never be separated again
@@ -505,27 +498,22 @@ class BeliefBatch:
             std = move_scale * np.maximum(spread, 1e-12 * width)
         return jitter(particles, std, rngs, space.low_array, space.high_array, space.periodic_mask)
 
-    def _spread(self, columns: FloatArray, move_scale: float | None) -> FloatArray:
-        """``(R, d)`` spread of particles given as ``(R, d, N)`` columns: each coordinate's range
-        (``move_scale`` ``None``) or standard deviation, periodic ones about their circular mean."""
+    def _spread(self, columns: FloatArray) -> FloatArray:
+        """``(R, d)`` standard deviation of each coordinate of particles given as ``(R, d, N)``
+        columns (periodic ones: of the residuals about the circular mean)."""
         space = self.space
-        idx, _, period, harmonic = _angle_scale(space)
-        n = columns.shape[2]
-        if move_scale is None:
-            spread = columns.max(axis=2) - columns.min(axis=2)
-        else:
-            spread = columns.std(axis=2)
+        idx, low, period, harmonic = _angle_scale(space)
+        r_rows, _, n = columns.shape
+        spread = columns.std(axis=2)
         if idx.size:
-            uniform = np.full(n, 1.0 / n)
-            center = np.stack([angle_means(space, c[idx].T, uniform) for c in columns])
+            uniform = np.full((r_rows, n), 1.0 / n)
+            angles = columns[:, idx].transpose(0, 2, 1)
+            center = circular_means(angles, uniform, low, period, harmonic)
             half = period / (2.0 * harmonic)  # residuals live in [-half, half)
             resid = np.mod(
                 columns[:, idx] - center[:, :, None] + half[:, None], 2.0 * half[:, None]
             )
-            if move_scale is None:
-                spread[:, idx] = resid.max(axis=2) - resid.min(axis=2)
-            else:
-                spread[:, idx] = resid.std(axis=2)
+            spread[:, idx] = resid.std(axis=2)
         return spread
 
     # ------------------------------------------------------------------ estimates
@@ -539,9 +527,9 @@ class BeliefBatch:
         """``(K, d)`` MMSE estimates (eq. 12; circular/axial means of periodic angles)."""
         particles, weights = self._rows(rows)
         est = weighted_means(particles, weights)
-        idx = np.flatnonzero(self.space.periodic_mask)
-        for k in range(est.shape[0] if idx.size else 0):
-            est[k, idx] = angle_means(self.space, particles[k][:, idx], weights[k])
+        idx, low, period, harmonic = _angle_scale(self.space)
+        if idx.size:
+            est[:, idx] = circular_means(particles[:, :, idx], weights, low, period, harmonic)
         return est
 
     def mass_within(
