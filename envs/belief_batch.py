@@ -41,7 +41,7 @@ from infoseek.envs.log_weights import (
     logsumexp_rows,
     normalised,
 )
-from infoseek.envs.resampling import systematic_resample, systematic_resample_rows
+from infoseek.envs.resampling import gather_rows, systematic_resample, systematic_resample_rows
 from infoseek.envs.roughening import coordinate_ranges, jitter
 from infoseek.envs.summaries import mass_grids, masses_within, weighted_means
 from infoseek.envs.targets import StationaryTarget, TargetMotion, TargetSpace
@@ -464,7 +464,7 @@ class BeliefBatch:
             return need
         uniforms = np.array([self.rngs[k].random() for k in rows])
         idx = systematic_resample_rows(self.weights[rows], uniforms)
-        particles = self.particles[rows[:, None], idx]
+        particles = gather_rows(self.particles, rows, idx)
         if self.roughening > 0.0:
             particles = self.roughen(particles, [self.rngs[k] for k in rows])
         self.set_rows(rows, particles, np.full((rows.size, n), -math.log(n)))

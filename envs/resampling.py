@@ -26,6 +26,7 @@ IntArray = NDArray[np.int64]
 
 __all__ = [
     "effective_sample_size",
+    "gather_rows",
     "multinomial_resample",
     "normalize_weights",
     "stratified_resample",
@@ -139,6 +140,42 @@ def systematic_resample_rows(weights: FloatArray, uniforms: FloatArray) -> IntAr
             f"weights must be (K, N) and uniforms (K,), got {w.shape} and {np.shape(uniforms)}"
         )
     return _systematic_rows(w, np.ascontiguousarray(uniforms, dtype=np.float64))  # type: ignore[no-any-return]
+
+
+@kernel
+def _gather_rows(particles: FloatArray, rows: IntArray, idx: IntArray) -> FloatArray:
+    r_rows, n = idx.shape
+    d = particles.shape[2]
+    out = np.empty((r_rows, n, d))
+    for r in range(r_rows):
+        source = particles[rows[r]]
+        for i in range(n):
+            for j in range(d):
+                out[r, i, j] = source[idx[r, i], j]
+    return out
+
+
+def gather_rows(particles: FloatArray, rows: IntArray, idx: IntArray) -> FloatArray:
+    """``(R, N', d)`` particles ``particles[rows[r], idx[r, i]]``: the resampled sets of ``rows``.
+
+    Args:
+        particles: ``(K, N, d)`` particle sets.
+        rows: ``(R,)`` the sets resampled.
+        idx: ``(R, N')`` ancestor indices of each (from :func:`systematic_resample_rows`).
+    """
+    particles = np.ascontiguousarray(particles, dtype=np.float64)
+    rows = np.ascontiguousarray(rows, dtype=np.int64)
+    idx = np.ascontiguousarray(idx, dtype=np.int64)
+    k_rows, n = particles.shape[:2]
+    if (
+        idx.shape[0] != rows.shape[0]
+        or rows.size
+        and (rows.min() < 0 or rows.max() >= k_rows or idx.min() < 0 or idx.max() >= n)
+    ):
+        raise ValueError(
+            f"rows {rows.shape} and idx {idx.shape} must index the {k_rows} sets of {n} particles"
+        )
+    return _gather_rows(particles, rows, idx)  # type: ignore[no-any-return]
 
 
 def stratified_resample(

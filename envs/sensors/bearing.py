@@ -81,6 +81,7 @@ from infoseek.envs.sensors.arrays import (
 from infoseek.envs.sensors.base import FloatArray, ObservationDomain
 from infoseek.envs.sensors.wrapped_normal import (
     ImageSum,
+    bearings_of_groups,
     summed_log_likelihood,
     wrapped_log_density,
 )
@@ -301,12 +302,7 @@ class BearingSensor:
         """
         if self._image_sum is None:
             return None
-        groups = z.shape[0]
-        k_rows, n = particles.shape[0], particles.shape[1]
-        grouped = particles.reshape(groups, (k_rows // groups) * n, particles.shape[2])
-        dx = grouped[:, None, :, 0] - poses[:, :, 0, None]
-        dy = grouped[:, None, :, 1] - poses[:, :, 1, None]
-        bearings = np.arctan2(dy, dx, out=dy)
+        bearings = bearings_of_groups(particles, poses)
         return summed_log_likelihood(bearings, z[..., 0], received, self._image_sum)
 
     def bin_probabilities(

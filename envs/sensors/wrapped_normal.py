@@ -36,7 +36,12 @@ from infoseek.envs.compiled import kernel
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
-__all__ = ["ImageSum", "summed_log_likelihood", "wrapped_log_density"]
+__all__ = [
+    "ImageSum",
+    "bearings_of_groups",
+    "summed_log_likelihood",
+    "wrapped_log_density",
+]
 
 _CLIP = -700.0
 _CLIPPED_TERM = math.exp(_CLIP)
@@ -183,6 +188,45 @@ def _summed(
                     for i in range(n):
                         row[i] = row[i] + 0.0
     return total
+
+
+@kernel
+def _offsets(
+    particles: FloatArray, poses: FloatArray, groups: int
+) -> tuple[FloatArray, FloatArray]:
+    """``(G, M, P)`` offsets ``particle - pose`` along x and y of every group's particles."""
+    k_rows, n, _ = particles.shape
+    per = k_rows // groups
+    m = poses.shape[1]
+    dx = np.empty((groups, m, per * n))
+    dy = np.empty((groups, m, per * n))
+    for g in range(groups):
+        for j in range(m):
+            px, py = poses[g, j, 0], poses[g, j, 1]
+            for q in range(per):
+                source = particles[g * per + q]
+                for i in range(n):
+                    dx[g, j, q * n + i] = source[i, 0] - px
+                    dy[g, j, q * n + i] = source[i, 1] - py
+    return dx, dy
+
+
+def bearings_of_groups(particles: FloatArray, poses: FloatArray) -> FloatArray:
+    """``(G, M, P)`` unwrapped bearings ``atan2`` from each of group ``g``'s ``M`` poses to
+    its ``P = (K / G) N`` particles (the arctangent is NumPy's ufunc: its SIMD loop where
+    allowed, the C library's in the pinned environment).
+
+    Args:
+        particles: ``(K, N, >= 2)`` particles of ``K`` beliefs, belief ``k`` of group
+            ``k // (K / G)``.
+        poses: ``(G, M, 2)`` sensor positions.
+    """
+    particles = np.ascontiguousarray(particles, dtype=np.float64)
+    poses = np.ascontiguousarray(poses, dtype=np.float64)
+    if particles.shape[0] % poses.shape[0]:
+        raise ValueError(f"{particles.shape[0]} beliefs do not split into {poses.shape[0]} groups")
+    dx, dy = _offsets(particles, poses, poses.shape[0])
+    return np.arctan2(dy, dx, out=dy)
 
 
 def summed_log_likelihood(
