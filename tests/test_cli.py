@@ -55,6 +55,23 @@ def test_timing_smoke(capsys: pytest.CaptureFixture[str]) -> None:
     assert "env_step_bearings_4" in capsys.readouterr().out
 
 
+def test_timing_alternates_with_a_baseline_checkout(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--baseline runs both versions in fresh processes, A B per round, and reports B / A (here
+    the baseline is this checkout itself, imported through the temporary package tree)."""
+    root = Path(__file__).resolve().parents[1]
+    out = tmp_path / "ab.json"
+    argv = ["timing", "--repeats", "2", "--only", "env_step_bearings_4", "--rounds", "1"]
+    assert main([*argv, "--baseline", str(root), "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "B / A" in printed and "env_step_bearings_4" in printed
+    (row,) = json.loads(out.read_text())["results"]["env_step_bearings_4"]["rounds"]
+    assert row["ratio"] == pytest.approx(row["b_ms"] / row["a_ms"])
+    assert main([*argv, "--baseline", str(tmp_path)]) == 2  # not a checkout: before any work
+    assert "is not an infoseek checkout" in capsys.readouterr().err
+
+
 def test_bench_smoke_stores_and_summarises(
     bench_dir: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
