@@ -92,6 +92,8 @@ __all__ = ["BearingSensor"]
 _NEGLIGIBLE_EXPONENT = 42.0
 # Above this noise level the theta series needs fewer terms than the image sum.
 _FOURIER_SIGMA = 2.0
+# Bearings per block of groups in the filter's likelihood pass (arrays that stay in cache).
+_BLOCK_ELEMENTS = 1 << 16
 
 
 class BearingSensor:
@@ -302,8 +304,21 @@ class BearingSensor:
         """
         if self._image_sum is None:
             return None
-        bearings = bearings_of_groups(particles, poses)
-        return summed_log_likelihood(bearings, z[..., 0], received, self._image_sum)
+        groups = z.shape[0]
+        per = particles.shape[0] // groups
+        block = max(1, _BLOCK_ELEMENTS // (z.shape[1] * per * particles.shape[1]))
+        if block >= groups:
+            bearings = bearings_of_groups(particles, poses)
+            return summed_log_likelihood(bearings, z[..., 0], received, self._image_sum)
+        total = np.empty(particles.shape[:2])
+        for start in range(0, groups, block):  # blocks of groups: the bearings stay in cache
+            stop = min(start + block, groups)
+            rows = slice(start * per, stop * per)
+            bearings = bearings_of_groups(particles[rows], poses[start:stop])
+            total[rows] = summed_log_likelihood(
+                bearings, z[start:stop, :, 0], received[rows], self._image_sum
+            )
+        return total
 
     def bin_probabilities(
         self, edges: FloatArray, poses: FloatArray, particles: FloatArray
