@@ -307,3 +307,28 @@ def test_kernels_refuse_wrong_dtypes_and_shapes_naming_the_argument():
             2,
             2,
         )
+
+
+def test_pose_rows_compute_each_pose_once_and_start_again_past_the_budget():
+    from infoseek.planners.information.pose_rows import PoseRows
+
+    calls: list[int] = []
+
+    def compute(poses: Any) -> dict[str, Any]:
+        calls.append(poses.shape[0])
+        return {"value": poses.sum(axis=1, keepdims=True) * np.ones((1, 4))}
+
+    table = PoseRows(budget=1 << 20)
+    poses = np.array([[1.0, 2.0], [3.0, 4.0], [1.0, 2.0]])  # a repeated pose
+    rows = table.lookup(poses, compute)
+    assert calls == [2] and rows[0] == rows[2] != rows[1]
+    more = table.lookup(np.array([[3.0, 4.0], [5.0, 6.0]]), compute)
+    assert calls == [2, 1] and more[0] == rows[1]
+    np.testing.assert_array_equal(table.bank("value")[more[1]], 11.0)
+    small = PoseRows(budget=64)  # two rows of 4 float64 fit, a third starts again
+    small.lookup(poses, compute)
+    before = small.bank("value")
+    again = small.lookup(np.array([[7.0, 8.0], [1.0, 2.0]]), compute)
+    assert small.generation == 1 and small.size == 2
+    np.testing.assert_array_equal(small.bank("value")[again][:, 0], [15.0, 3.0])
+    np.testing.assert_array_equal(before[rows[1]], 7.0)  # rows handed out earlier stay valid

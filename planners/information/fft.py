@@ -30,18 +30,18 @@ from numpy.typing import NDArray
 from infoseek.envs.sensors.base import Sensor
 from infoseek.planners.information.base import BeliefMI, FloatArray, JointEntropies, MIEstimator
 from infoseek.planners.information.channels import BATCH_BUDGET
+from infoseek.planners.information.moment_histograms import single_stencil_histograms
 from infoseek.planners.information.noise_kernel import NoiseKernel, grid_points
 from infoseek.planners.information.quadrature import check_points
+from infoseek.planners.information.stencil_cache import StencilCache
 from infoseek.planners.information.windows import (
-    WindowSide,
     full_grid_pair_entropies,
-    pose_windows,
     windowed_pair_entropies,
 )
 
 __all__ = ["AdditiveFFTEstimator"]
 
-_SINGLE_CHUNK_ELEMENTS = 1 << 17  # predictions per chunk of single MIs (cache-sized arrays)
+_SINGLE_CHUNK_ELEMENTS = 1 << 20  # predictions per chunk of single MIs
 
 
 class AdditiveFFTEstimator(MIEstimator):
@@ -68,47 +68,16 @@ class AdditiveFFTEstimator(MIEstimator):
         return self.kernel.n_points
 
     # -- per-pose work
-    def predictions(self, belief: BeliefMI, poses: FloatArray) -> FloatArray:
+    def cache(self, belief: BeliefMI) -> StencilCache:
+        """The belief's predictions and window stencils (one :class:`StencilCache` per belief)."""
+        return belief.derived(  # type: ignore[no-any-return]
+            "fft/stencils", lambda: StencilCache(self.sensor, self.kernel, belief.particles)
+        )
+
+    def predictions(self, belief: BeliefMI, poses: FloatArray) -> NDArray[Any]:
         """``(P, N)`` float32 noise-free predictions, cached per pose."""
-
-        def compute(missing: FloatArray) -> FloatArray:
-            particles = belief.derived(
-                "particles32", lambda: np.ascontiguousarray(belief.particles, dtype=np.float32)
-            )
-            predicted = np.asarray(
-                self.sensor.predict(missing.astype(np.float32), particles)  # type: ignore[attr-defined]
-            )
-            expected = (missing.shape[0], particles.shape[0], 1)
-            if predicted.shape != expected:
-                raise ValueError(
-                    f"sensor.predict returned shape {predicted.shape}, expected {expected}"
-                )
-            if np.any(np.isnan(predicted)):
-                raise ValueError("sensor.predict returned NaN")
-            return predicted[..., 0]
-
-        return np.stack(belief.per_pose("predictions", poses, compute))
-
-    def _sides(self, belief: BeliefMI, poses: FloatArray) -> WindowSide:
-        """Windowed stencils of a pose set (cached per set; the per-pose windows per pose)."""
-
-        def compute(missing: FloatArray) -> list[tuple[object, ...]]:
-            start, targets, weights, widths = pose_windows(
-                self.kernel, self.predictions(belief, missing)
-            )
-            return [(start[p], targets[p], weights[p], widths[p]) for p in range(len(start))]
-
-        def side(pose_set: FloatArray) -> WindowSide:
-            entries = belief.per_pose("window", pose_set, compute)
-            return WindowSide(
-                self.kernel,
-                np.array([e[0] for e in entries], dtype=np.int64),
-                np.stack([e[1] for e in entries]),
-                np.stack([e[2] for e in entries]),
-                np.array([e[3] for e in entries], dtype=np.int64),
-            )
-
-        return belief.for_pose_set("side", poses, side)
+        bank, rows = self.cache(belief).prediction_rows(poses)
+        return bank[rows]
 
     # -- estimates
     def singles(self, belief: BeliefMI, poses: FloatArray) -> FloatArray:
@@ -116,25 +85,42 @@ class AdditiveFFTEstimator(MIEstimator):
 
     def _single_entropies(self, belief: BeliefMI, poses: FloatArray) -> FloatArray:
         """Discrete ``H(z)`` of single observations at ``(C, pose_dim)`` poses."""
+        cache = self.cache(belief)
+        kernel = self.kernel
         chunk = max(1, _SINGLE_CHUNK_ELEMENTS // belief.n_particles)
         result = np.empty(poses.shape[0])
         for start in range(0, poses.shape[0], chunk):
             block = poses[start : start + chunk]
-            histograms = self.kernel.single_histograms(
-                self.predictions(belief, block), belief.weights, belief.uniform
+            bank, rows = cache.prediction_rows(block)
+            if bank.dtype != np.float32:  # a sensor without a float32 path
+                bank, rows = bank[rows].astype(np.float32), np.arange(rows.shape[0])
+            histograms = single_stencil_histograms(
+                bank,
+                belief.weights,
+                belief.uniform,
+                kernel.low,
+                kernel.spacing,
+                kernel.n_points,
+                kernel.periodic,
+                rows,
             )
-            result[start : start + block.shape[0]] = self.kernel.smoothed_entropy(histograms)
+            result[start : start + block.shape[0]] = kernel.smoothed_entropy(histograms)
         return result
 
     def pairs(self, belief: BeliefMI, poses_a: FloatArray, poses_b: FloatArray) -> FloatArray:
-        side_a, side_b = self._sides(belief, poses_a), self._sides(belief, poses_b)
+        cache = self.cache(belief)
+        side_a, side_b = cache.sides(poses_a, poses_b)
         if side_a.fits and side_b.fits:
-            joint = windowed_pair_entropies(self.kernel, side_a, side_b, belief.weights)
+            joint = windowed_pair_entropies(
+                self.kernel, side_a, side_b, belief.weights, belief.uniform
+            )
         else:
+            bank, rows = cache.prediction_rows(np.concatenate([poses_a, poses_b]))
+            predictions = _exact_dtype(bank[rows])
             joint = full_grid_pair_entropies(
                 self.kernel,
-                _exact_dtype(self.predictions(belief, poses_a)),
-                _exact_dtype(self.predictions(belief, poses_b)),
+                predictions[: poses_a.shape[0]],
+                predictions[poses_a.shape[0] :],
                 belief.weights,
             )
         return joint - 2.0 * self.kernel.entropy

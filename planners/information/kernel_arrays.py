@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import DTypeLike, NDArray
 
-__all__ = ["require"]
+__all__ = ["require", "require_rows"]
 
 
 def require(
@@ -49,3 +49,22 @@ def require(
         wanted = "(" + ", ".join("*" if s is None else str(s) for s in shape) + ")"
         raise ValueError(f"{name} must have shape {wanted}, got {value.shape}")
     return np.ascontiguousarray(value)
+
+
+def require_rows(rows: Any, name: str, count: int) -> NDArray[np.int64]:
+    """``rows`` (``None``: all ``count`` rows) as a contiguous int64 array of rows in
+    ``[0, count)``.
+
+    Raises:
+        TypeError: ``rows`` is not an integer array.
+        ValueError: ``rows`` is not one-dimensional or selects a row outside ``[0, count)``.
+    """
+    if rows is None:
+        return np.arange(count, dtype=np.int64)
+    if not isinstance(rows, np.ndarray) or rows.dtype.kind not in "iu":
+        raise TypeError(f"{name} must be a numpy array of integers, got {rows!r}")
+    if rows.ndim != 1:
+        raise ValueError(f"{name} must be one-dimensional, got shape {rows.shape}")
+    if rows.size and (rows.min() < 0 or rows.max() >= count):
+        raise ValueError(f"{name} must select rows in [0, {count})")
+    return np.ascontiguousarray(rows, dtype=np.int64)

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from infoseek.envs.compiled import kernel
 from infoseek.planners.information.base import FloatArray
-from infoseek.planners.information.kernel_arrays import require
+from infoseek.planners.information.kernel_arrays import require, require_rows
 
 __all__ = ["grid_positions", "single_stencil_histograms"]
 
@@ -75,6 +75,7 @@ def grid_positions(
 @kernel
 def _moments(
     predictions: NDArray[np.float32],
+    rows: NDArray[np.int64],
     weights: FloatArray,
     uniform: bool,
     low: np.float32,
@@ -82,13 +83,14 @@ def _moments(
     n_points: int,
     periodic: bool,
 ) -> FloatArray:
-    """``(B, Q + 1, 3)`` moment histograms (node ``Q``: the seam or the overhang)."""
-    n_batch, n = predictions.shape
+    """``(B, Q + 1, 3)`` moment histograms of the predictions ``rows`` (node ``Q``: the seam or
+    the overhang)."""
+    n_batch, n = rows.shape[0], predictions.shape[1]
     half = np.float32(0.5)
     moments = np.zeros((n_batch, n_points + 1, 3))
     position = np.empty(n, dtype=np.float32)
     for b in range(n_batch):
-        grid_positions(predictions[b], low, scale, n_points, periodic, position)
+        grid_positions(predictions[rows[b]], low, scale, n_points, periodic, position)
         row = moments[b]
         for i in range(n):
             nearest = np.floor(position[i] + half)
@@ -155,27 +157,37 @@ def single_stencil_histograms(
     spacing: float,
     n_points: int,
     periodic: bool,
+    rows: NDArray[np.integer] | None = None,
 ) -> FloatArray:
-    """``(B, Q)`` stencil histograms of ``(B, N)`` float32 predictions (module docstring).
+    """``(B, Q)`` stencil histograms of float32 predictions (module docstring).
 
     Args:
-        predictions: ``(B, N)`` float32 noise-free observations.
+        predictions: ``(P, N)`` float32 noise-free observations.
         weights: ``(N,)`` float64 normalised particle weights.
         uniform: Whether all weights are equal (then ``1 / N`` replaces them).
         low: Lower bound of the observation domain.
         spacing: Node spacing.
         n_points: ``Q``.
         periodic: Whether the observation wraps.
+        rows: ``(B,)`` rows of ``predictions`` to histogram (``None``: all, ``B = P``).
 
     Raises:
         TypeError, ValueError: An array of another dtype or shape (the message names it).
     """
     predictions = require(predictions, "predictions", np.float32, (None, None))
+    selected = require_rows(rows, "rows", predictions.shape[0])
     weights = require(weights, "weights", np.float64, (predictions.shape[1],))
     if not (isinstance(n_points, int) and n_points >= 2):
         raise ValueError(f"n_points must be an integer >= 2, got {n_points!r}")
     scale = np.float32(1.0 / spacing)
     moments = _moments(
-        predictions, weights, bool(uniform), np.float32(low), scale, n_points, bool(periodic)
+        predictions,
+        selected,
+        weights,
+        bool(uniform),
+        np.float32(low),
+        scale,
+        n_points,
+        bool(periodic),
     )
     return _stencil_histograms(moments, bool(periodic))  # type: ignore[no-any-return]

@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from infoseek.envs.compiled import kernel
 from infoseek.planners.information.base import FloatArray
-from infoseek.planners.information.kernel_arrays import require
+from infoseek.planners.information.kernel_arrays import require, require_rows
 
 __all__ = ["full_grid_pair_histograms", "windowed_scatter_histograms"]
 
@@ -179,29 +179,39 @@ def full_grid_pair_histograms(
 def _windowed(
     targets_a: NDArray[np.int32],
     weights_a: NDArray[np.float32],
+    rows_a: NDArray[np.int64],
     targets_b: NDArray[np.int32],
     weights_b: NDArray[np.float32],
+    rows_b: NDArray[np.int64],
     particle_weights: FloatArray,
     width_a: int,
     width_b: int,
-) -> NDArray[np.float32]:
-    n_a, n = targets_a.shape[:2]
-    n_b = targets_b.shape[0]
+) -> tuple[NDArray[np.float32], bool]:
+    """The window histograms and whether every window node lay inside its window (an entry
+    outside is skipped, never written)."""
+    n_a, n_b, n = rows_a.shape[0], rows_b.shape[0], particle_weights.shape[0]
     histograms = np.empty((n_a, n_b, width_a, width_b), dtype=np.float32)
     counts = np.empty((width_a, width_b))
+    inside = True
     for a in range(n_a):
+        row_a = rows_a[a]
         for b in range(n_b):
+            row_b = rows_b[b]
             counts[:] = 0.0
             for i in range(n):
                 for u in range(3):
-                    scaled = np.float64(weights_a[a, i, u]) * particle_weights[i]
-                    row = targets_a[a, i, u]
+                    scaled = np.float64(weights_a[row_a, i, u]) * particle_weights[i]
+                    node_a = targets_a[row_a, i, u]
                     for v in range(3):
-                        counts[row, targets_b[b, i, v]] += scaled * np.float64(weights_b[b, i, v])
+                        node_b = targets_b[row_b, i, v]
+                        if node_a < 0 or node_a >= width_a or node_b < 0 or node_b >= width_b:
+                            inside = False
+                            continue
+                        counts[node_a, node_b] += scaled * np.float64(weights_b[row_b, i, v])
             for u in range(width_a):
                 for v in range(width_b):
                     histograms[a, b, u, v] = np.float32(counts[u, v])
-    return histograms
+    return histograms, inside
 
 
 def windowed_scatter_histograms(
@@ -212,34 +222,45 @@ def windowed_scatter_histograms(
     particle_weights: FloatArray,
     width_a: int,
     width_b: int,
+    rows_a: NDArray[np.integer] | None = None,
+    rows_b: NDArray[np.integer] | None = None,
 ) -> NDArray[np.float32]:
     """``(C, M, W_a, W_b)`` float32 window histograms of every pair (module docstring).
 
     Args:
-        targets_a: ``(C, N, 3)`` int32 window nodes of each stencil entry of one side, in
+        targets_a: ``(P_a, N, 3)`` int32 window nodes of each stencil entry of one side, in
             ``[0, W_a)``.
-        weights_a: ``(C, N, 3)`` float32 stencil weights.
-        targets_b: ``(M, N, 3)`` int32 window nodes of the other side, in ``[0, W_b)``.
-        weights_b: ``(M, N, 3)`` float32 stencil weights.
+        weights_a: ``(P_a, N, 3)`` float32 stencil weights.
+        targets_b: ``(P_b, N, 3)`` int32 window nodes of the other side, in ``[0, W_b)``.
+        weights_b: ``(P_b, N, 3)`` float32 stencil weights.
         particle_weights: ``(N,)`` float64 normalised particle weights.
         width_a, width_b: Window sizes ``W_a``, ``W_b``.
+        rows_a, rows_b: The ``C`` and ``M`` poses of the two sides, rows of the arrays above
+            (``None``: all rows).
 
     Raises:
         TypeError, ValueError: An array of another dtype or shape, or a target outside its
             window (the message names it).
     """
     targets_a = require(targets_a, "targets_a", np.int32, (None, None, 3))
-    n_a, n = targets_a.shape[:2]
-    weights_a = require(weights_a, "weights_a", np.float32, (n_a, n, 3))
+    n = targets_a.shape[1]
+    weights_a = require(weights_a, "weights_a", np.float32, targets_a.shape)
     targets_b = require(targets_b, "targets_b", np.int32, (None, n, 3))
-    weights_b = require(weights_b, "weights_b", np.float32, (targets_b.shape[0], n, 3))
+    weights_b = require(weights_b, "weights_b", np.float32, targets_b.shape)
     particle_weights = require(particle_weights, "particle_weights", np.float64, (n,))
-    for name, targets, width in (
-        ("targets_a", targets_a, width_a),
-        ("targets_b", targets_b, width_b),
-    ):
-        if targets.size and (targets.min() < 0 or targets.max() >= width):
-            raise ValueError(f"{name} must lie in [0, {width})")
-    return _windowed(  # type: ignore[no-any-return]
-        targets_a, weights_a, targets_b, weights_b, particle_weights, int(width_a), int(width_b)
+    selected_a = require_rows(rows_a, "rows_a", targets_a.shape[0])
+    selected_b = require_rows(rows_b, "rows_b", targets_b.shape[0])
+    histograms, inside = _windowed(
+        targets_a,
+        weights_a,
+        selected_a,
+        targets_b,
+        weights_b,
+        selected_b,
+        particle_weights,
+        int(width_a),
+        int(width_b),
     )
+    if not inside:
+        raise ValueError(f"targets_a must lie in [0, {width_a}) and targets_b in [0, {width_b})")
+    return histograms  # type: ignore[no-any-return]

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from infoseek.envs.compiled import kernel
-from infoseek.planners.information.kernel_arrays import require
+from infoseek.planners.information.kernel_arrays import require, require_rows
 from infoseek.planners.information.moment_histograms import grid_positions
 
 __all__ = ["pose_windows", "stencil_matrices"]
@@ -112,19 +112,20 @@ def _clamped_window(
 @kernel
 def _windows(
     predictions: NDArray[np.float32],
+    rows: NDArray[np.int64],
     low: np.float32,
     scale: np.float32,
     n_points: int,
     periodic: bool,
 ) -> tuple[NDArray[np.int64], NDArray[np.int32], NDArray[np.float32], NDArray[np.int64]]:
-    n_poses, n = predictions.shape
+    n_poses, n = rows.shape[0], predictions.shape[1]
     start = np.empty(n_poses, dtype=np.int64)
     width = np.empty(n_poses, dtype=np.int64)
     targets = np.empty((n_poses, n, 3), dtype=np.int32)
     weights = np.empty((n_poses, n, 3), dtype=np.float32)
     position = np.empty(n, dtype=np.float32)
     for p in range(n_poses):
-        grid_positions(predictions[p], low, scale, n_points, periodic, position)
+        grid_positions(predictions[rows[p]], low, scale, n_points, periodic, position)
         if periodic:
             start[p] = _periodic_window(position, n_points, targets[p], weights[p])
         else:
@@ -138,9 +139,14 @@ def _windows(
 
 
 def pose_windows(
-    predictions: NDArray[np.float32], low: float, spacing: float, n_points: int, periodic: bool
+    predictions: NDArray[np.float32],
+    low: float,
+    spacing: float,
+    n_points: int,
+    periodic: bool,
+    rows: NDArray[np.integer] | None = None,
 ) -> tuple[NDArray[np.int64], NDArray[np.int32], NDArray[np.float32], NDArray[np.int64]]:
-    """Window stencils of ``(P, N)`` float32 predictions (module docstring).
+    """Window stencils of float32 predictions (module docstring).
 
     Args:
         predictions: ``(P, N)`` float32 noise-free observations.
@@ -148,49 +154,71 @@ def pose_windows(
         spacing: Node spacing.
         n_points: ``Q``.
         periodic: Whether the observation wraps.
+        rows: ``(B,)`` rows of ``predictions`` (``None``: all, ``B = P``).
 
     Returns:
-        ``(start (P,), targets (P, N, 3) int32, weights (P, N, 3) float32, width (P,))``.
+        ``(start (B,), targets (B, N, 3) int32, weights (B, N, 3) float32, width (B,))``.
 
     Raises:
-        TypeError, ValueError: ``predictions`` of another dtype or shape.
+        TypeError, ValueError: ``predictions`` or ``rows`` of another dtype or shape.
     """
     predictions = require(predictions, "predictions", np.float32, (None, None))
     if predictions.shape[1] == 0:
         raise ValueError("predictions must have at least one particle")
+    selected = require_rows(rows, "rows", predictions.shape[0])
     return _windows(  # type: ignore[no-any-return]
-        predictions, np.float32(low), np.float32(1.0 / spacing), int(n_points), bool(periodic)
+        predictions,
+        selected,
+        np.float32(low),
+        np.float32(1.0 / spacing),
+        int(n_points),
+        bool(periodic),
     )
 
 
 @kernel
 def _dense(
-    targets: NDArray[np.int32], weights: NDArray[np.float32], width: int
-) -> NDArray[np.float32]:
-    n_poses, n = targets.shape[:2]
+    targets: NDArray[np.int32], weights: NDArray[np.float32], rows: NDArray[np.int64], width: int
+) -> tuple[NDArray[np.float32], bool]:
+    """The dense matrices and whether every window node lay in ``[0, width)`` (a node outside
+    is skipped, never written)."""
+    n_poses, n = rows.shape[0], targets.shape[1]
     dense = np.zeros((n_poses * width, n), dtype=np.float32)
+    inside = True
     for p in range(n_poses):
+        row = rows[p]
         for i in range(n):
             for u in range(3):
-                dense[p * width + targets[p, i, u], i] = weights[p, i, u]
-    return dense
+                node = targets[row, i, u]
+                if node < 0 or node >= width:
+                    inside = False
+                    continue
+                dense[p * width + node, i] = weights[row, i, u]
+    return dense, inside
 
 
 def stencil_matrices(
-    targets: NDArray[np.int32], weights: NDArray[np.float32], width: int
+    targets: NDArray[np.int32],
+    weights: NDArray[np.float32],
+    width: int,
+    rows: NDArray[np.integer] | None = None,
 ) -> NDArray[np.float32]:
-    """Dense ``(P W, N)`` float32 stencil matrices of a pose set (module docstring).
+    """Dense ``(B W, N)`` float32 stencil matrices of a pose set (module docstring).
 
     Args:
-        targets: ``(P, N, 3)`` int32 window nodes, in ``[0, width)``.
+        targets: ``(P, N, 3)`` int32 window nodes.
         weights: ``(P, N, 3)`` float32 stencil weights.
         width: Rows per pose ``W``.
+        rows: ``(B,)`` poses of the set, rows of ``targets`` (``None``: all, ``B = P``); their
+            window nodes must lie in ``[0, width)``.
 
     Raises:
         TypeError, ValueError: An array of another dtype or shape, or a node outside the window.
     """
     targets = require(targets, "targets", np.int32, (None, None, 3))
     weights = require(weights, "weights", np.float32, targets.shape)
-    if targets.size and (targets.min() < 0 or targets.max() >= width):
+    selected = require_rows(rows, "rows", targets.shape[0])
+    dense, inside = _dense(targets, weights, selected, int(width))
+    if not inside:
         raise ValueError(f"targets must lie in [0, {width})")
-    return _dense(targets, weights, int(width))  # type: ignore[no-any-return]
+    return dense  # type: ignore[no-any-return]

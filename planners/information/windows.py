@@ -88,11 +88,15 @@ class WindowSide:
 
     Args:
         kernel: The noise kernel.
-        start, targets, weights, widths: Per pose, as returned by :func:`pose_windows` (or
-            stacked from per-pose entries of it).
+        start, widths: ``(P,)`` window origin and size of each pose of the side.
+        targets, weights: ``(R, N, 3)`` window stencils, as returned by :func:`pose_windows`;
+            the side's poses are their ``rows`` (a side of a pose set reads the stencils a
+            belief keeps for every pose it has seen, in place).
+        rows: ``(P,)`` rows of ``targets`` and ``weights`` (``None``: ``R = P``, all of them).
 
     Attributes:
         width: Common window size (the largest of ``widths``).
+        size: ``P``.
         out: Output nodes per axis after the linear convolution (``width + 2h``).
         fits: Whether the window plus the kernel support fits in one period (always true on a
             non-periodic domain).
@@ -106,13 +110,15 @@ class WindowSide:
         targets: NDArray[np.int32],
         weights: NDArray[np.float32],
         widths: NDArray[np.int64],
+        rows: NDArray[np.int64] | None = None,
     ) -> None:
         self.start, self.targets, self.weights, self.widths = start, targets, weights, widths
+        self.rows = np.arange(targets.shape[0], dtype=np.int64) if rows is None else rows
         self.width = int(self.widths.max())
-        self.size = int(self.targets.shape[0])
+        self.size = int(self.rows.shape[0])
         self.out = self.width + 2 * kernel.window_half_width
         self.fits = not kernel.periodic or self.out <= kernel.n_points
-        self._stencils: dict[bool, NDArray[np.float32]] = {}
+        self._stencils: NDArray[np.float32] | None = None
         self.mask: FloatArray | None = None
         if not kernel.periodic:  # the full grid keeps only the domain's nodes
             nodes = self.start[:, None] - kernel.window_half_width + np.arange(self.out)
@@ -120,21 +126,21 @@ class WindowSide:
 
     @property
     def nbytes(self) -> int:
-        """Memory held (stencils included, as far as built)."""
-        built = sum(int(m.nbytes) for m in self._stencils.values())
-        return int(self.targets.nbytes + self.weights.nbytes) + built
+        """Memory held by the side itself (the dense stencils, as far as built)."""
+        return 0 if self._stencils is None else int(self._stencils.nbytes)
 
     @classmethod
     def from_predictions(cls, kernel: NoiseKernel, predictions: NDArray[Any]) -> WindowSide:
         """The side of ``(P, N)`` predictions."""
-        return cls(kernel, *pose_windows(kernel, predictions))
+        start, targets, weights, widths = pose_windows(kernel, predictions)
+        return cls(kernel, start, targets, weights, widths)
 
     def stencils(self) -> NDArray[np.float32]:
         """Dense ``(P W, N)`` float32 stencil matrices
         (:func:`~infoseek.planners.information.window_stencils.stencil_matrices`), built once."""
-        if not self._stencils:
-            self._stencils[False] = stencil_matrices(self.targets, self.weights, self.width)
-        return self._stencils[False]
+        if self._stencils is None:
+            self._stencils = stencil_matrices(self.targets, self.weights, self.width, self.rows)
+        return self._stencils
 
 
 def windowed_pair_entropies(
@@ -142,11 +148,13 @@ def windowed_pair_entropies(
     side_a: WindowSide,
     side_b: WindowSide,
     particle_weights: FloatArray,
+    uniform: bool | None = None,
 ) -> FloatArray:
     """Discrete joint entropies ``H(z_a, z_b)`` ``(C, M)`` on windowed grids.
 
     Both sides must fit (:attr:`WindowSide.fits`); the result equals the full-grid entropy up
-    to the discarded kernel tail (module docstring).
+    to the discarded kernel tail (module docstring). ``uniform``: whether all particle weights
+    are equal (``None``: compared here).
     """
     width_a, width_b = side_a.width, side_b.width
     n_a, n_b = side_a.size, side_b.size
@@ -156,7 +164,8 @@ def windowed_pair_entropies(
     conv_b = conv_a if width_b == width_a else _convolution_matrix(kernel, width_b)
     gemm = width_a * width_b <= _WINDOW_GEMM_CELLS
     if gemm:
-        uniform = particle_weights.min() == particle_weights.max()
+        if uniform is None:
+            uniform = bool(particle_weights.min() == particle_weights.max())
         stencil_a = side_a.stencils()
         if not uniform:
             stencil_a = stencil_a * particle_weights.astype(np.float32)
@@ -177,13 +186,15 @@ def windowed_pair_entropies(
             histogram = histogram.reshape(size, width_a, n_b, width_b).transpose(0, 2, 1, 3)
         else:
             histogram = windowed_scatter_histograms(
-                side_a.targets[begin:end],
-                side_a.weights[begin:end],
+                side_a.targets,
+                side_a.weights,
                 side_b.targets,
                 side_b.weights,
                 particle_weights,
                 width_a,
                 width_b,
+                side_a.rows[begin:end],
+                side_b.rows,
             )
         # Linear convolution along both axes: (conv_a H conv_b^T), axes (c, m, out_b, out_a),
         # in float32 (probabilities to ~1e-7: far below any planning or test tolerance).
