@@ -21,7 +21,8 @@ by linear interpolation in a table :math:`T` of :math:`\log \rho` on the grid
   ``(G, H, N, N)`` temporaries. One row :math:`n` at a time: the table positions of the ``N``
   differences split into ``j`` and ``f`` (a loop the compiler vectorises), then the ``N``
   interpolations added to the row, from a table of pairs :math:`(T_j, T_{j+1} - T_j)` (the
-  slope is the difference the NumPy code took at every lookup, taken once). Groups whose first pose's predictions equal the previous group's share that pose's lookups
+  slope is the difference the NumPy code took at every lookup, taken once). A group whose
+  first pose's predictions equal those of the last first pose looked up reuses its terms
   (equal inputs, equal bits): the receding-horizon sequences that start with the same control.
 
 Every value is the one of the NumPy expressions these kernels replace, bit for bit (there are no
