@@ -332,3 +332,34 @@ def test_pose_rows_compute_each_pose_once_and_start_again_past_the_budget():
     assert small.generation == 1 and small.size == 2
     np.testing.assert_array_equal(small.bank("value")[again][:, 0], [15.0, 3.0])
     np.testing.assert_array_equal(before[rows[1]], 7.0)  # rows handed out earlier stay valid
+
+
+@pytest.mark.parametrize("length", [1, 9, 1200, 8192, 8193, 9216, 20000])
+def test_grid_entropies_equal_the_numpy_form_bit_for_bit(length):
+    from infoseek.planners.information.grid_entropy import entropy_sums, normalise_rows
+
+    rng = np.random.default_rng(length)
+    grids = rng.standard_normal((3, length)) * np.exp(rng.uniform(-30.0, 5.0, (3, length)))
+    grids[:, 0] = -0.0
+    # float64 (the FFT grids): clamp at 0, normalise (sum floored at 1e-30), clamp at 1e-300
+    density = np.maximum(grids, 0.0)
+    density /= np.maximum(density.sum(axis=1, keepdims=True, dtype=np.float64), 1e-30)
+    density = np.maximum(density, 1e-300)
+    expected = -np.sum(density * np.log(density), axis=(1,))
+    rows = grids.copy()
+    normalise_rows(rows)
+    assert _same(rows, density)
+    assert _same(entropy_sums(rows, np.log(rows)), expected)
+    # float32 (the window grids): clamp at 1e-38, normalise by the float64 sum in float32
+    grids32 = grids.astype(np.float32)
+    density32 = np.maximum(grids32, np.float32(1e-38))
+    density32 /= density32.sum(axis=1, keepdims=True, dtype=np.float64).astype(np.float32)
+    expected32 = -np.sum(density32 * np.log(density32), axis=1, dtype=np.float64)
+    rows32 = grids32.copy()
+    normalise_rows(rows32)
+    assert _same(rows32, density32)
+    assert _same(entropy_sums(rows32, np.log(rows32)), expected32)
+    with pytest.raises(TypeError, match="rows must be a float64 or float32"):
+        normalise_rows(grids.astype(np.float16))
+    with pytest.raises(ValueError, match="logs must have shape"):
+        entropy_sums(rows, np.log(rows)[:2])

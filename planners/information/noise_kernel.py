@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 from infoseek.envs.sensors.base import Sensor
 from infoseek.planners.information.base import FloatArray
 from infoseek.planners.information.channels import entropy
+from infoseek.planners.information.grid_entropy import entropy_sums, normalise_rows
 from infoseek.planners.information.moment_histograms import single_stencil_histograms
 from infoseek.planners.information.quadrature import observation_nodes
 
@@ -303,11 +304,17 @@ class NoiseKernel:
         density = scipy.fft.irfftn(spectrum, s=(length,) * k, axes=axes, workers=1)
         if length != q:
             density = density[(slice(None),) + (slice(0, q),) * k]
-        density = np.maximum(density.reshape(n_batch, -1), 0.0)
-        density /= np.maximum(density.sum(axis=1, keepdims=True, dtype=np.float64), 1e-30).astype(
-            density.dtype
-        )
-        return entropy(density, (1,)).astype(np.float64)
+        if dtype is not np.float64:
+            density = np.maximum(density.reshape(n_batch, -1), 0.0)
+            density /= np.maximum(
+                density.sum(axis=1, keepdims=True, dtype=np.float64), 1e-30
+            ).astype(density.dtype)
+            return entropy(density, (1,)).astype(np.float64)
+        # clamp, normalise, clamp at 1e-300 and -sum p log p in two compiled passes around
+        # NumPy's log (grid_entropy)
+        rows = np.ascontiguousarray(density.reshape(n_batch, -1))
+        normalise_rows(rows)
+        return entropy_sums(rows, np.log(rows))
 
 
 def stencil_weights(delta: NDArray[Any]) -> FloatArray:

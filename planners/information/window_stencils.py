@@ -35,78 +35,86 @@ __all__ = ["pose_windows", "stencil_matrices"]
 
 
 @kernel
-def _stencil_weights(delta: np.float32, weights: NDArray[np.float32], i: int) -> None:
-    """Float32 quadratic weights of nodes ``j - 1, j, j + 1`` for offset ``delta`` (row ``i``)."""
-    half = np.float32(0.5)
-    half_sq = half * delta * delta
-    weights[i, 0] = half_sq - half * delta
-    weights[i, 1] = np.float32(1.0) - np.float32(2.0) * half_sq
-    weights[i, 2] = half_sq + half * delta
+def _lowest_deviation(
+    position: NDArray[np.float32], first: np.float32, half: np.float32, period: np.float32
+) -> np.float32:
+    """``min_n d_n`` of the deviations from the first position wrapped into ``[-Q/2, Q/2)``.
 
-
-@kernel
-def _periodic_window(
-    position: NDArray[np.float32],
-    q: int,
-    targets: NDArray[np.int32],
-    weights: NDArray[np.float32],
-) -> int:
-    """Window of one pose on a periodic grid; fills ``targets``, ``weights``; returns ``s``."""
+    Kept as eight running minima (a minimum is exact in any order, so this is the minimum
+    NumPy's reduction found; only the sign of a zero could differ, which the sum it enters
+    cannot see).
+    """
     n = position.shape[0]
-    period = np.float32(q)
-    half = np.float32(0.5 * q)
-    first = position[0]
+    lanes = np.full(8, np.inf, dtype=np.float32)
+    i = 0
+    while i + 8 <= n:
+        for k in range(8):
+            deviation = position[i + k] - first
+            deviation = deviation + period if deviation < -half else deviation
+            deviation = deviation - period if deviation >= half else deviation
+            lanes[k] = deviation if deviation < lanes[k] else lanes[k]
+        i += 8
     lowest = np.float32(np.inf)
-    for i in range(n):
-        deviation = position[i] - first
-        if deviation < -half:
-            deviation += period
-        if deviation >= half:
-            deviation -= period
-        lowest = min(lowest, deviation)
-    start = math.floor(np.float64(lowest) + np.float64(first)) - 1
-    origin = np.float32(start)
-    lowest_node = n + q
-    for i in range(n):
-        relative = position[i] - origin
-        if relative < 0:
-            relative += period
-        if relative >= period:
-            relative -= period
-        nearest = np.floor(relative + np.float32(0.5))
-        node = int(nearest)
-        lowest_node = min(lowest_node, node)
-        targets[i, 0] = node
-        _stencil_weights(relative - nearest, weights, i)
-    shift = 1 if lowest_node == 0 else 0
-    for i in range(n):
-        node = targets[i, 0] + shift
-        targets[i, 0], targets[i, 1], targets[i, 2] = node - 1, node, node + 1
-    return start - shift
+    for k in range(8):
+        lowest = lanes[k] if lanes[k] < lowest else lowest
+    for j in range(i, n):
+        deviation = position[j] - first
+        deviation = deviation + period if deviation < -half else deviation
+        deviation = deviation - period if deviation >= half else deviation
+        lowest = deviation if deviation < lowest else lowest
+    return lowest
 
 
 @kernel
-def _clamped_window(
+def _periodic_nodes(
     position: NDArray[np.float32],
-    q: int,
+    origin: np.float32,
+    period: np.float32,
+    nodes: NDArray[np.int32],
+    deltas: NDArray[np.float32],
+) -> int:
+    """Nearest window nodes and offsets of positions relative to ``origin`` (wrapped into
+    ``[0, Q)``); returns the lowest node."""
+    half = np.float32(0.5)
+    for i in range(position.shape[0]):
+        relative = position[i] - origin
+        relative = relative + period if relative < np.float32(0.0) else relative
+        relative = relative - period if relative >= period else relative
+        nearest = np.floor(relative + half)
+        nodes[i] = np.int32(nearest)
+        deltas[i] = relative - nearest
+    lowest = int(nodes[0])
+    for i in range(nodes.shape[0]):
+        lowest = min(lowest, int(nodes[i]))
+    return lowest
+
+
+@kernel
+def _fill(
+    nodes: NDArray[np.int32],
+    deltas: NDArray[np.float32],
+    shift: int,
+    low_edge: int,
+    high_edge: int,
     targets: NDArray[np.int32],
     weights: NDArray[np.float32],
 ) -> int:
-    """Window of one pose on a clamped grid; fills ``targets``, ``weights``; returns ``s``."""
-    n = position.shape[0]
-    lowest_node = q
-    for i in range(n):
-        nearest = np.floor(position[i] + np.float32(0.5))
-        node = int(nearest)
-        lowest_node = min(lowest_node, node)
-        targets[i, 1] = node
-        _stencil_weights(position[i] - nearest, weights, i)
-    start = max(lowest_node - 1, 0)
-    for i in range(n):
-        node = targets[i, 1]
+    """Targets ``min(max(j + u, low_edge), high_edge) + shift`` (``u = -1, 0, 1``) and the
+    float32 quadratic weights of the offsets; returns the largest target."""
+    half = np.float32(0.5)
+    widest = 0
+    for i in range(nodes.shape[0]):
+        node = int(nodes[i])
         for u in range(3):
-            targets[i, u] = min(max(node + u - 1, 0), q - 1) - start
-    return start
+            target = min(max(node + u - 1, low_edge), high_edge) + shift
+            targets[i, u] = target
+            widest = max(widest, target)
+        delta = deltas[i]
+        half_sq = half * delta * delta
+        weights[i, 0] = half_sq - half * delta
+        weights[i, 1] = np.float32(1.0) - np.float32(2.0) * half_sq
+        weights[i, 2] = half_sq + half * delta
+    return widest
 
 
 @kernel
@@ -124,16 +132,31 @@ def _windows(
     targets = np.empty((n_poses, n, 3), dtype=np.int32)
     weights = np.empty((n_poses, n, 3), dtype=np.float32)
     position = np.empty(n, dtype=np.float32)
+    nodes = np.empty(n, dtype=np.int32)
+    deltas = np.empty(n, dtype=np.float32)
+    period = np.float32(n_points)
+    half = np.float32(0.5)
+    unbounded = n_points + 3  # no clamping of periodic window nodes
     for p in range(n_poses):
         grid_positions(predictions[rows[p]], low, scale, n_points, periodic, position)
         if periodic:
-            start[p] = _periodic_window(position, n_points, targets[p], weights[p])
+            first = position[0]
+            lowest = _lowest_deviation(position, first, half * period, period)
+            origin = math.floor(np.float64(lowest) + np.float64(first)) - 1
+            lowest_node = _periodic_nodes(position, np.float32(origin), period, nodes, deltas)
+            # a stencil reaching node -1: move the window one node down
+            shift = 1 if lowest_node == 0 else 0
+            start[p] = origin - shift
+            widest = _fill(nodes, deltas, shift, -unbounded, unbounded, targets[p], weights[p])
         else:
-            start[p] = _clamped_window(position, n_points, targets[p], weights[p])
-        widest = 0
-        for i in range(n):
-            for u in range(3):
-                widest = max(widest, targets[p, i, u])
+            lowest_node = n_points
+            for i in range(n):
+                nearest = np.floor(position[i] + half)
+                nodes[i] = np.int32(nearest)
+                deltas[i] = position[i] - nearest
+                lowest_node = min(lowest_node, int(nodes[i]))
+            start[p] = max(lowest_node - 1, 0)
+            widest = _fill(nodes, deltas, -start[p], 0, n_points - 1, targets[p], weights[p])
         width[p] = widest + 1
     return start, targets, weights, width
 

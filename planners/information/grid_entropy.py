@@ -1,0 +1,114 @@
+r"""Compiled normalisation and entropy sums of the smoothed observation grids.
+
+The ``fft`` estimator turns every convolved grid row ``x`` (one observation density per pose or
+pair, ``L`` cells) into a discrete entropy
+
+.. math::  p_i = \frac{c(x_i)}{\sum_j c(x_j)}, \qquad H = -\sum_i p_i \log p_i,
+
+with ``c`` a clamp of the FFT's (or the float32 product's) rounding: float64 grids clamp at
+``0`` and divide by ``max(sum, 1e-30)``, then clamp ``p`` at ``1e-300``; float32 window grids
+clamp at ``1e-38`` and divide by the float64 sum rounded to float32. The logarithm is left to
+NumPy's ufunc between the two kernels here (its SIMD loops are much faster than the C library's
+``log`` outside the pinned environment, and they are NumPy's bits inside it); the kernels do the
+passes around it. Sums are NumPy's: the pairwise summation of :func:`~infoseek.envs.compiled.
+pairwise_sum` over a float64 row, and for float32 rows summed as float64 the same over blocks of
+8192 values (NumPy's casting buffer) added in order. So the entropies are the NumPy ones bit for
+bit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from infoseek.envs.compiled import kernel, pairwise_sum
+from infoseek.planners.information.base import FloatArray
+from infoseek.planners.information.kernel_arrays import require
+
+__all__ = ["entropy_sums", "normalise_rows"]
+
+#: Values NumPy casts per buffer in a reduction with a ``dtype`` (its default buffer size).
+CAST_BLOCK = 8192
+
+
+@kernel
+def _buffered_sum(values: FloatArray) -> float:
+    """NumPy's sum of a row converted to float64 in buffers of :data:`CAST_BLOCK` values."""
+    total = 0.0
+    for start in range(0, values.shape[0], CAST_BLOCK):
+        total += pairwise_sum(values[start : min(start + CAST_BLOCK, values.shape[0])])
+    return total
+
+
+@kernel
+def _normalise64(rows: FloatArray) -> None:
+    buffer = np.empty(rows.shape[1])
+    for r in range(rows.shape[0]):
+        for i in range(rows.shape[1]):
+            value = rows[r, i]
+            buffer[i] = value if value >= 0.0 else 0.0
+        total = pairwise_sum(buffer)
+        total = total if total >= 1e-30 else 1e-30
+        for i in range(rows.shape[1]):
+            value = buffer[i] / total
+            rows[r, i] = value if value >= 1e-300 else 1e-300
+
+
+@kernel
+def _normalise32(rows: NDArray[np.float32]) -> None:
+    floor = np.float32(1e-38)
+    buffer = np.empty(rows.shape[1])
+    for r in range(rows.shape[0]):
+        for i in range(rows.shape[1]):
+            value = rows[r, i]
+            value = value if value >= floor else floor
+            rows[r, i] = value
+            buffer[i] = np.float64(value)
+        total = np.float32(_buffered_sum(buffer))
+        for i in range(rows.shape[1]):
+            rows[r, i] = rows[r, i] / total
+
+
+def normalise_rows(rows: NDArray[np.floating]) -> None:
+    """Clamp and normalise every row of a float64 or float32 ``(R, L)`` grid in place (module
+    docstring).
+
+    Raises:
+        TypeError, ValueError: ``rows`` is not a two-dimensional float64 or float32 array.
+    """
+    if not isinstance(rows, np.ndarray) or rows.dtype not in (np.float64, np.float32):
+        raise TypeError(f"rows must be a float64 or float32 numpy array, got {rows!r:.60}")
+    if rows.ndim != 2 or not rows.flags.c_contiguous:
+        raise ValueError(f"rows must be a C-contiguous (R, L) array, got shape {rows.shape}")
+    if rows.dtype == np.float64:
+        _normalise64(rows)  # type: ignore[arg-type]
+    else:
+        _normalise32(rows)
+
+
+@kernel
+def _entropy_sums(rows: NDArray[np.floating], logs: NDArray[np.floating], cast: bool) -> FloatArray:
+    result = np.empty(rows.shape[0])
+    buffer = np.empty(rows.shape[1])
+    for r in range(rows.shape[0]):
+        for i in range(rows.shape[1]):
+            buffer[i] = np.float64(rows[r, i] * logs[r, i])  # the product in the rows' precision
+        result[r] = -(_buffered_sum(buffer) if cast else pairwise_sum(buffer))
+    return result
+
+
+def entropy_sums(rows: NDArray[np.floating], logs: NDArray[np.floating]) -> FloatArray:
+    """``(R,)`` values ``-sum_i p_i log p_i`` of normalised rows and their logarithms.
+
+    Args:
+        rows: ``(R, L)`` float64 or float32 probabilities (:func:`normalise_rows`).
+        logs: ``numpy.log(rows)``.
+
+    Raises:
+        TypeError, ValueError: Arrays of another dtype or shape.
+    """
+    dtype = getattr(rows, "dtype", None)
+    dtype = np.float32 if dtype == np.float32 else np.float64
+    rows = require(rows, "rows", dtype, (None, None))
+    logs = require(logs, "logs", dtype, rows.shape)
+    return _entropy_sums(rows, logs, dtype == np.float32)  # type: ignore[no-any-return]
