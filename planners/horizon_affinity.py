@@ -165,9 +165,22 @@ def _interpolate(
 @kernel
 def _wrap_mode(predictions: FloatArray, periodic: bool, period: float) -> int:
     """How to wrap the differences of one pose's predictions (see :func:`_positions`)."""
-    if not periodic:
+    if not periodic or predictions.shape[0] == 0:
         return _NO_WRAP
-    return _SHIFT_WRAP if predictions.max() - predictions.min() <= period else _FMOD_WRAP
+    low = high = predictions[0]
+    for m in range(1, predictions.shape[0]):
+        low = min(low, predictions[m])
+        high = max(high, predictions[m])
+    return _SHIFT_WRAP if high - low <= period else _FMOD_WRAP
+
+
+@kernel
+def _equal(a: FloatArray, b: FloatArray) -> bool:
+    """Whether two equally long rows compare equal element by element."""
+    for m in range(a.shape[0]):
+        if a[m] != b[m]:
+            return False
+    return True
 
 
 @kernel
@@ -186,22 +199,23 @@ def _pair_term_sums(
     first = np.empty((n, n))  # the first pose's terms of the latest group that computed them
     index = np.empty(n, dtype=np.int32)
     fraction = np.empty(n)
-    geometry = (delta0, step, half, period, upper)
     cached = -1
     for g in range(n_groups):
         head = predictions[g, 0]
-        if cached < 0 or not np.all(head == predictions[cached, 0]):
+        if cached < 0 or not _equal(head, predictions[cached, 0]):
             wrap = _wrap_mode(head, periodic, period)
             for i in range(n):
-                _positions(index, fraction, head[i], head, wrap, *geometry)
+                _positions(index, fraction, head[i], head, wrap, delta0, step, half, period, upper)
                 _interpolate(first[i], index, fraction, pairs, False)
             cached = g
-        out[g] = first
+        for i in range(n):
+            for m in range(n):
+                out[g, i, m] = first[i, m]
         for t in range(1, horizon):
             pose = predictions[g, t]
             wrap = _wrap_mode(pose, periodic, period)
             for i in range(n):
-                _positions(index, fraction, pose[i], pose, wrap, *geometry)
+                _positions(index, fraction, pose[i], pose, wrap, delta0, step, half, period, upper)
                 _interpolate(out[g, i], index, fraction, pairs, True)
     return out
 
