@@ -321,11 +321,11 @@ def test_pose_rows_compute_each_pose_once_and_start_again_past_the_budget():
     table = PoseRows(budget=1 << 20)
     poses = np.array([[1.0, 2.0], [3.0, 4.0], [1.0, 2.0]])  # a repeated pose
     rows = table.lookup(poses, compute)
-    assert calls == [2] and rows[0] == rows[2] != rows[1]
+    assert calls == [3] and rows[0] == rows[2] != rows[1]  # the batch as requested
     more = table.lookup(np.array([[3.0, 4.0], [5.0, 6.0]]), compute)
-    assert calls == [2, 1] and more[0] == rows[1]
+    assert calls == [3, 1] and more[0] == rows[1]
     np.testing.assert_array_equal(table.bank("value")[more[1]], 11.0)
-    small = PoseRows(budget=64)  # two rows of 4 float64 fit, a third starts again
+    small = PoseRows(budget=96)  # three rows of 4 float64 fit, a fourth starts again
     small.lookup(poses, compute)
     before = small.bank("value")
     again = small.lookup(np.array([[7.0, 8.0], [1.0, 2.0]]), compute)
@@ -363,3 +363,58 @@ def test_grid_entropies_equal_the_numpy_form_bit_for_bit(length):
         normalise_rows(grids.astype(np.float16))
     with pytest.raises(ValueError, match="logs must have shape"):
         entropy_sums(rows, np.log(rows)[:2])
+
+
+def test_complex_multiply_is_numpy_complex64_multiply_bit_for_bit():
+    from infoseek.envs.compiled import kernel
+    from infoseek.planners.information.fused import complex_multiply
+
+    @kernel
+    def products(a: Any, b: Any) -> Any:  # pragma: no cover - compiled
+        out = np.empty_like(a)
+        for i in range(a.shape[0]):
+            real, imag = complex_multiply(a[i].real, a[i].imag, b[i].real, b[i].imag)
+            out[i] = complex(real, imag)
+        return out
+
+    rng = np.random.default_rng(9)
+    for n in (1, 3, 8, 2001):
+        a = (rng.standard_normal(n) + 1j * rng.standard_normal(n)).astype(np.complex64)
+        b = (rng.standard_normal(n) + 1j * rng.standard_normal(n)).astype(np.complex64)
+        assert _same(products(a, b), a * b)  # a rounding of the plain formula differs often
+
+
+@pytest.mark.parametrize("max_snr", [5.0, 40.0])
+def test_fourier_spectra_equal_the_numpy_synthesis_bit_for_bit(max_snr):
+    from infoseek.envs.sensors.beacon import BeaconSensor
+    from infoseek.planners.information import make_estimator
+
+    sensor = BeaconSensor().with_max_snr(max_snr)
+    compiled = make_estimator("fourier", sensor)
+    reference = make_estimator("fourier", sensor)
+    reference.table.compiled = False  # the NumPy form the kernel replaced
+    assert compiled.table.compiled
+    rng = np.random.default_rng(int(max_snr))
+    particles = np.column_stack(
+        [rng.uniform(0, 40, (700, 2)), rng.uniform(-np.pi, np.pi, (700, 1))]
+    )
+    belief = compiled.bind(particles, np.full(700, 1.0 / 700))
+    poses = rng.uniform(0, 40, (5, 2))
+    spectra, entropies = compiled._spectra(poses, belief)
+    expected_spectra, expected_entropies = reference._spectra(poses, belief)
+    assert _same(spectra, expected_spectra)
+    assert _same(entropies, expected_entropies)
+
+
+def test_pair_grids_equal_the_numpy_transpose_bit_for_bit():
+    from infoseek.planners.information.grid_entropy import pair_grids
+
+    rng = np.random.default_rng(12)
+    n_a, n_b, q = 3, 4, 6
+    joint = (rng.standard_normal((n_a * q, n_b * q)) * 1e-3).astype(np.float32)
+    joint[0, :3] = [0.0, -0.0, 1e-310]
+    expected = joint.reshape(n_a, q, n_b, q).astype(np.float64)
+    expected = np.maximum(np.transpose(expected, (0, 2, 1, 3)).reshape(n_a * n_b, q * q), 1e-300)
+    assert _same(pair_grids(joint, n_a, n_b, q), expected)
+    with pytest.raises(ValueError, match="joint must have shape"):
+        pair_grids(joint, n_a, n_b + 1, q)

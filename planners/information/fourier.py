@@ -47,6 +47,9 @@ import scipy.fft
 from infoseek.envs.sensors.base import Sensor
 from infoseek.planners.information.base import BeliefMI, FloatArray, JointEntropies, MIEstimator
 from infoseek.planners.information.channels import BATCH_BUDGET, entropy, joint_entropies
+from infoseek.planners.information.fourier_cache import FourierCache
+from infoseek.planners.information.fourier_spectra import kernel_spectra
+from infoseek.planners.information.grid_entropy import entropy_sums, pair_grids
 from infoseek.planners.information.quadrature import check_points
 
 __all__ = ["KernelTable", "ShiftKernelEstimator"]
@@ -102,7 +105,9 @@ class KernelTable:
         # float32 (value, slope to the next node) pairs: one row gather per particle
         slope = np.diff(coefficients, axis=0, append=coefficients[-1:])
         dtype = np.float32 if np.isrealobj(coefficients) else np.complex64
-        self._rows = np.ascontiguousarray(np.stack([coefficients, slope], axis=1).astype(dtype))
+        self.rows = np.ascontiguousarray(np.stack([coefficients, slope], axis=1).astype(dtype))
+        #: Whether the compiled synthesis serves the table (real coefficients, two nodes or more).
+        self.compiled = dtype is np.float32 and self.shapes.size >= 2
 
     def _sample(self, sensor: Sensor, samples: int) -> tuple[np.ndarray, FloatArray]:
         """Coefficients ``(G, samples // 2 + 1)`` and entropies ``(G,)`` from a fine grid."""
@@ -126,19 +131,24 @@ class KernelTable:
         shift = np.exp(1j * np.pi * np.arange(spectrum.shape[1]))  # e^{-i w_k (-L/2)}
         return spectrum * shift, entropies
 
+    def shape_coordinates(self, shapes: FloatArray) -> FloatArray:
+        """``u = log1p(clip(s, 0, s_max)) / spacing``: the shape in node units."""
+        u: FloatArray = np.log1p(np.clip(shapes, 0.0, self.max_shape)) * (1.0 / self.node_spacing)
+        return u
+
     def interpolate(self, shapes: FloatArray) -> tuple[np.ndarray, FloatArray]:
         """``(F (..., K + 1), h (...))`` at arbitrary shapes (clamped to ``[0, s_max]``).
 
         ``F`` is float32 (complex64 for kernels that are not even), linear in ``u``.
         """
-        rows = self._rows
+        rows = self.rows
         if self.shapes.size == 1:
             shape = np.shape(shapes)
             return (
                 np.broadcast_to(rows[0, 0], shape + (self.harmonics + 1,)),
                 np.full(shape, self.entropies[0]),
             )
-        u = np.log1p(np.clip(shapes, 0.0, self.max_shape)) * (1.0 / self.node_spacing)
+        u = self.shape_coordinates(shapes)
         node = np.minimum(u.astype(np.intp), self.shapes.size - 2)
         t = u - node
         pairs = rows[node]  # (..., 2, K + 1)
@@ -197,13 +207,26 @@ class ShiftKernelEstimator(MIEstimator):
             )
         if not (np.all(np.isfinite(centre)) and np.all(np.isfinite(shape))):
             raise ValueError("kernel_parameters returned non-finite values")
-        coefficients, h = self.table.interpolate(shape)
         angle = (centre - self.table.low) * self._frequencies[1]
+        n_rows = self.n_points // 2 + 1
+        if self.table.compiled:
+            # NumPy's ufuncs for the transcendentals, one compiled pass for the rest
+            u = self.table.shape_coordinates(shape)
+            return kernel_spectra(
+                u,
+                np.cos(angle),
+                np.sin(angle),
+                self.table.rows,  # type: ignore[arg-type]
+                self.table.entropies,
+                self.harmonics,
+                n_rows,
+            )
+        coefficients, h = self.table.interpolate(shape)
         step = (np.cos(angle) - 1j * np.sin(angle)).astype(np.complex64)  # e^{-i w_1 (c - low)}
         n_poses, n = expected
         # Q // 2 + 1 rows, the ones above K zero, so the inverse real FFT on Q nodes needs no
         # padding copy.
-        spectra = np.empty((n_poses, self.n_points // 2 + 1, n), dtype=np.complex64)
+        spectra = np.empty((n_poses, n_rows, n), dtype=np.complex64)
         spectra[:, self.harmonics + 1 :] = 0.0
         spectra[:, 0] = 1.0
         if self.harmonics >= 1:
@@ -214,32 +237,21 @@ class ShiftKernelEstimator(MIEstimator):
         kept *= np.swapaxes(coefficients[..., : self.harmonics + 1], 1, 2)
         return spectra, h
 
+    def cache(self, belief: BeliefMI) -> FourierCache:
+        """The belief's spectra and channels (one :class:`FourierCache` per belief)."""
+        return belief.derived(  # type: ignore[no-any-return]
+            f"fourier/{self.n_points}", lambda: FourierCache(self, belief)
+        )
+
     def spectra(self, belief: BeliefMI, poses: FloatArray) -> tuple[np.ndarray, FloatArray]:
-        """``(X (P, K + 1, N), conditional (P,))``: kernel spectra and ``H(z | theta)``, cached
-        per pose."""
-
-        def compute(missing: FloatArray) -> list[tuple[np.ndarray, float]]:
-            spectra, h = self._spectra(missing, belief)
-            conditional = h @ belief.weights
-            return [(spectra[p], float(conditional[p])) for p in range(missing.shape[0])]
-
-        entries = belief.per_pose(f"spectra/{self.n_points}", poses, compute)
-        return np.stack([x for x, _ in entries]), np.array([h for _, h in entries])
+        """``(X (P, Q // 2 + 1, N), conditional (P,))``: kernel spectra and ``H(z | theta)``,
+        cached per pose."""
+        return self.cache(belief).spectra(poses)
 
     def channels(self, belief: BeliefMI, poses: FloatArray) -> tuple[np.ndarray, FloatArray]:
         """``(P, Q, N)`` float32 channels (cell probabilities of every particle, cell axis first)
-        and ``(P,)`` conditional entropies; cached per pose and per pose set."""
-
-        def compute(missing: FloatArray) -> list[tuple[np.ndarray, float]]:
-            spectra, conditional = self.spectra(belief, missing)
-            rows = scipy.fft.irfft(spectra, n=self.n_points, axis=1)  # (P, Q, N) float32
-            return [(rows[p], float(conditional[p])) for p in range(missing.shape[0])]
-
-        def stacked(pose_set: FloatArray) -> tuple[np.ndarray, FloatArray]:
-            entries = belief.per_pose(f"fourier/{self.n_points}", pose_set, compute)
-            return np.stack([c for c, _ in entries]), np.array([h for _, h in entries])
-
-        return belief.for_pose_set(f"fourier-set/{self.n_points}", poses, stacked)
+        and ``(P,)`` conditional entropies; cached per pose."""
+        return self.cache(belief).channels(poses)
 
     # -- estimates
     def singles(self, belief: BeliefMI, poses: FloatArray) -> FloatArray:
@@ -306,7 +318,6 @@ def _pair_joint_entropies(
     for start in range(0, n_a, chunk):
         stop = min(start + chunk, n_a)
         left = channels_a[start:stop].reshape(-1, n)
-        joint = (left @ right.T).reshape(stop - start, q, n_b, q).astype(np.float64)
-        joint = np.transpose(joint, (0, 2, 1, 3)).reshape(stop - start, n_b, q * q)
-        result[start:stop] = entropy(joint, (2,))
+        joint = pair_grids(left @ right.T, stop - start, n_b, q)  # float64, clamped at 1e-300
+        result[start:stop] = entropy_sums(joint, np.log(joint)).reshape(stop - start, n_b)
     return result

@@ -25,7 +25,7 @@ from infoseek.envs.compiled import kernel, pairwise_sum
 from infoseek.planners.information.base import FloatArray
 from infoseek.planners.information.kernel_arrays import require
 
-__all__ = ["entropy_sums", "normalise_rows"]
+__all__ = ["entropy_sums", "normalise_rows", "pair_grids"]
 
 #: Values NumPy casts per buffer in a reduction with a ``dtype`` (its default buffer size).
 CAST_BLOCK = 8192
@@ -112,3 +112,30 @@ def entropy_sums(rows: NDArray[np.floating], logs: NDArray[np.floating]) -> Floa
     rows = require(rows, "rows", dtype, (None, None))
     logs = require(logs, "logs", dtype, rows.shape)
     return _entropy_sums(rows, logs, dtype == np.float32)  # type: ignore[no-any-return]
+
+
+@kernel
+def _pair_grids(joint: NDArray[np.float32], n_a: int, n_b: int, q: int) -> FloatArray:
+    grids = np.empty((n_a * n_b, q * q))
+    for a in range(n_a):
+        for u in range(q):
+            source = joint[a * q + u]
+            for b in range(n_b):
+                target = grids[a * n_b + b]
+                for v in range(q):
+                    value = np.float64(source[b * q + v])
+                    target[u * q + v] = value if value >= 1e-300 else 1e-300
+    return grids
+
+
+def pair_grids(joint: NDArray[np.float32], n_a: int, n_b: int, q: int) -> FloatArray:
+    """``(A B, Q^2)`` float64 pair grids, clamped at ``1e-300``, of the float32 product
+    ``(A Q, B Q)`` of two sets of ``Q``-cell channels (row ``a B + b``: the ``Q x Q`` joint of
+    pair ``(a, b)``, the transpose NumPy's ``reshape(A, Q, B, Q).transpose(0, 2, 1, 3)``
+    forms).
+
+    Raises:
+        TypeError, ValueError: ``joint`` of another dtype or shape.
+    """
+    joint = require(joint, "joint", np.float32, (n_a * q, n_b * q))
+    return _pair_grids(joint, int(n_a), int(n_b), int(q))  # type: ignore[no-any-return]

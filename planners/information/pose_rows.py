@@ -55,7 +55,11 @@ class PoseRows:
         Args:
             poses: ``(P, pose_dim)`` float64 poses.
             compute: ``compute(new_poses) -> {name: array}``, one array per bank with a leading
-                axis of ``len(new_poses)``; called once, with the distinct new poses in order.
+                axis of ``len(new_poses)``; called once, with the poses not seen before in
+                request order (a pose repeated in the request is passed each time and keeps
+                the last result: some computations, a BLAS matrix-vector product among them,
+                round a row differently in batches of other sizes, so the batches are the
+                ones the per-pose code formed).
 
         Returns:
             ``(P,)`` rows into :meth:`bank` (valid for the arrays :meth:`bank` returns now).
@@ -65,17 +69,14 @@ class PoseRows:
         rows = [index.get(key, -1) for key in keys]
         if -1 not in rows:
             return np.array(rows, dtype=np.int64)
-        new: dict[bytes, int] = {}
-        for p, key in enumerate(keys):
-            if rows[p] == -1 and key not in new:
-                new[key] = p
-        fresh = compute(poses[list(new.values())])
-        if self._over_budget(len(new), fresh):
+        missing = [p for p, row in enumerate(rows) if row == -1]
+        fresh = compute(poses[missing])
+        if self._over_budget(len(missing), fresh):
             self._clear()  # then every pose of the request is new (size 0: no second clear)
             return self.lookup(poses, compute)
-        first = self._append(fresh, len(new))
-        for offset, key in enumerate(new):
-            index[key] = first + offset
+        first = self._append(fresh, len(missing))
+        for offset, p in enumerate(missing):  # a repeated pose keeps its last row
+            index[keys[p]] = first + offset
         return np.array([index[key] for key in keys], dtype=np.int64)
 
     def _over_budget(self, count: int, fresh: Mapping[str, NDArray[np.generic]]) -> bool:
