@@ -84,7 +84,10 @@ def _equal_weight_ranks(n: int, weight: float, tail: float) -> tuple[int, int]:
 def _unroll(column: FloatArray) -> None:
     """Shift angles in ``[0, 1)`` so that the largest gap between them is at the wrap."""
     n = column.shape[0]
-    ordered = column[stable_argsort(column)]
+    order = stable_argsort(column)
+    ordered = np.empty(n)
+    for i in range(n):
+        ordered[i] = column[order[i]]
     best, first = -math.inf, 0
     for i in range(n):
         gap = (ordered[i + 1] if i + 1 < n else ordered[0] + 1.0) - ordered[i]
@@ -97,11 +100,11 @@ def _unroll(column: FloatArray) -> None:
 
 @kernel
 def _box(
-    column: FloatArray, weights: FloatArray, ranks: tuple[int, int] | None, tail: float
+    column: FloatArray, weights: FloatArray, ranks: tuple[int, int], tail: float
 ) -> tuple[float, float]:
     """Weighted ``tail`` and ``1 - tail`` quantiles of one scaled coordinate (``ranks``: those
-    of equal weights, ``None`` for unequal ones)."""
-    if ranks is not None:
+    of equal weights, ``(-1, -1)`` for unequal ones)."""
+    if ranks[0] >= 0:
         return order_statistic_pair(column, ranks[0], ranks[1])
     order = stable_argsort(column)
     cumulative = np.empty(column.shape[0])
@@ -119,11 +122,11 @@ def _row_entropy(
     scaled: FloatArray,
     weights: FloatArray,
     log_width: FloatArray,
-    ranks: tuple[int, int] | None,
+    ranks: tuple[int, int],
     settings: tuple[float, float, float],
 ) -> float:
     """Entropy of one belief from its ``(d, N)`` scaled coordinates (module docstring);
-    ``ranks`` are the quantile ranks of equal weights, ``None`` for unequal weights."""
+    ``ranks`` are the quantile ranks of equal weights, ``(-1, -1)`` for unequal weights."""
     tail, box_floor, per_cell = settings
     d, n = scaled.shape
     box_low, side = np.empty(d), np.empty(d)
@@ -138,13 +141,13 @@ def _row_entropy(
     bins = np.empty(d, dtype=np.int64)
     cells = 1
     for j in range(d):
-        bins[j] = max(1, np.int64(np.rint(side[j] / cube)))
+        bins[j] = max(1, int(np.rint(side[j] / cube)))
         cells *= bins[j]
     mass = np.zeros(cells)
     for i in range(n):
         flat = 0
         for j in range(d):
-            cell = np.int64(math.floor((scaled[j, i] - box_low[j]) * (bins[j] / side[j])))
+            cell = int(math.floor((scaled[j, i] - box_low[j]) * (bins[j] / side[j])))
             flat = flat * bins[j] + min(max(cell, 0), bins[j] - 1)
         mass[flat] += weights[i]
     plug_in, occupied = plug_in_entropy(mass)
@@ -179,13 +182,11 @@ def _adaptive_entropies(
                 for i in range(n):
                     scaled[j, i] = scaled[j, i] % 1.0
                 _unroll(scaled[j])
-        if not equal:
-            out[k] = _row_entropy(scaled, weights[k], log_width, None, settings)
-            continue
-        if weights[k, 0] != ranks_weight:  # equal-weight ranks depend on N and the weight only
+        if equal and weights[k, 0] != ranks_weight:  # these ranks depend on N and the weight
             ranks_weight = weights[k, 0]
             ranks = _equal_weight_ranks(n, ranks_weight, settings[0])
-        out[k] = _row_entropy(scaled, weights[k], log_width, ranks, settings)
+        row_ranks = ranks if equal else (-1, -1)
+        out[k] = _row_entropy(scaled, weights[k], log_width, row_ranks, settings)
     return out
 
 

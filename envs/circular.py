@@ -46,8 +46,7 @@ def _weighted_sums(phase: FloatArray, weights: FloatArray) -> tuple[FloatArray, 
         c[0] = np.dot(weights, np.ascontiguousarray(cos_phase[:, 0]))
         s[0] = np.dot(weights, np.ascontiguousarray(sin_phase[:, 0]))
     else:
-        c[:] = np.dot(weights, cos_phase)
-        s[:] = np.dot(weights, sin_phase)
+        c, s = np.dot(weights, cos_phase), np.dot(weights, sin_phase)
     return c, s
 
 

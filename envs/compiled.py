@@ -85,9 +85,10 @@ def configure() -> None:
     if "numba" in sys.modules:
         from numba.core import config
 
-        config.DISABLE_INTEL_SVML = os.environ["NUMBA_DISABLE_INTEL_SVML"] == "1"
+        svml_off = os.environ["NUMBA_DISABLE_INTEL_SVML"] == "1"
+        config.DISABLE_INTEL_SVML = svml_off  # type: ignore[attr-defined]
         if "NUMBA_CPU_NAME" in os.environ:
-            config.CPU_NAME = os.environ["NUMBA_CPU_NAME"]
+            config.CPU_NAME = os.environ["NUMBA_CPU_NAME"]  # type: ignore[attr-defined]
 
 
 configure()
@@ -107,9 +108,9 @@ def describe() -> dict[str, Any]:
 
     return {
         "numba": numba.__version__,
-        "cpu_name": config.CPU_NAME or "host",
-        "cpu_features": config.CPU_FEATURES or "",
-        "svml": not config.DISABLE_INTEL_SVML,
+        "cpu_name": getattr(config, "CPU_NAME", None) or "host",
+        "cpu_features": getattr(config, "CPU_FEATURES", None) or "",
+        "svml": not getattr(config, "DISABLE_INTEL_SVML", False),
         "fastmath": KERNEL_OPTIONS["fastmath"],
     }
 

@@ -99,7 +99,9 @@ def _cell_entropy(
     """Plug-in ``-sum P_c log P_c`` over the grid of ``bins`` cells on the box
     ``[low, low + width]`` (:func:`grid_cell_index`), and the number of occupied cells."""
     flat = grid_cell_index(coords, low, width, bins)
-    mass = np.bincount(flat, weights=weights, minlength=int(np.prod(bins)))
+    mass = np.asarray(
+        np.bincount(flat, weights=weights, minlength=int(np.prod(bins))), dtype=np.float64
+    )
     plug_in, occupied = plug_in_entropy(mass)
     return float(plug_in), int(occupied)
 

@@ -89,12 +89,40 @@ def _insert_low(buffer: FloatArray, size: int, value: float) -> None:
 
 
 @kernel
+def _select(values: FloatArray, rank: int) -> float:
+    """The ``rank``-th smallest of ``values`` (0-based; ``values`` is reordered): Hoare's
+    selection with the median of three as pivot."""
+    left, right = 0, values.shape[0] - 1
+    while right > left:
+        middle = (left + right) // 2
+        a, b, c = values[left], values[middle], values[right]
+        pivot = max(min(a, b), min(max(a, b), c))
+        i, j = left, right
+        while i <= j:
+            while values[i] < pivot:
+                i += 1
+            while values[j] > pivot:
+                j -= 1
+            if i <= j:
+                values[i], values[j] = values[j], values[i]
+                i += 1
+                j -= 1
+        if rank <= j:
+            right = j
+        elif rank >= i:
+            left = i
+        else:
+            break
+    return values[rank]
+
+
+@kernel
 def order_statistic_pair(values: FloatArray, low: int, high: int) -> tuple[float, float]:
     """The ``low``-th and ``high``-th smallest of ``values`` (0-based, ``low <= high``)."""
     n = values.shape[0]
     top = n - 1 - high  # rank of the high one counted from the largest
     if low >= _SCAN_RANKS or top >= _SCAN_RANKS or n < 2 * _SCAN_RANKS:
-        return np.partition(values, low)[low], np.partition(values, high)[high]
+        return _select(values.copy(), low), _select(values.copy(), high)
     smallest = np.full(low + 1, np.inf)
     largest = np.full(top + 1, np.inf)  # negated: the smallest of -values
     for i in range(n):

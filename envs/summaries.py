@@ -33,7 +33,9 @@ def _weighted_means(particles: FloatArray, weights: FloatArray) -> FloatArray:
     k_rows, _, d = particles.shape
     out = np.empty((k_rows, d))
     for k in range(k_rows):
-        out[k] = np.dot(weights[k], particles[k])
+        mean = np.dot(weights[k], particles[k])
+        for j in range(d):  # element by element: no broadcasting checks to compile
+            out[k, j] = mean[j]
     return out
 
 
@@ -83,8 +85,8 @@ def _mass_grids(
     for k in range(k_rows):
         grid = out[k]
         for i in range(n):
-            cx = np.int64(math.floor((particles[k, i, 0] - low[0]) * fx))
-            cy = np.int64(math.floor((particles[k, i, 1] - low[1]) * fy))
+            cx = int(math.floor((particles[k, i, 0] - low[0]) * fx))
+            cy = int(math.floor((particles[k, i, 1] - low[1]) * fy))
             cx = min(max(cx, 0), gx - 1)
             cy = min(max(cy, 0), gy - 1)
             grid[cx * gy + cy] += weights[k, i]
