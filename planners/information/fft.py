@@ -76,8 +76,7 @@ class AdditiveFFTEstimator(MIEstimator):
 
     def predictions(self, belief: BeliefMI, poses: FloatArray) -> NDArray[Any]:
         """``(P, N)`` float32 noise-free predictions, cached per pose."""
-        bank, rows = self.cache(belief).prediction_rows(poses)
-        return bank[rows]
+        return self.cache(belief).predictions(poses)
 
     # -- estimates
     def singles(self, belief: BeliefMI, poses: FloatArray) -> FloatArray:
@@ -91,18 +90,15 @@ class AdditiveFFTEstimator(MIEstimator):
         result = np.empty(poses.shape[0])
         for start in range(0, poses.shape[0], chunk):
             block = poses[start : start + chunk]
-            bank, rows = cache.prediction_rows(block)
-            if bank.dtype != np.float32:  # a sensor without a float32 path
-                bank, rows = bank[rows].astype(np.float32), np.arange(rows.shape[0])
+            predictions = np.asarray(cache.predictions(block), dtype=np.float32)
             histograms = single_stencil_histograms(
-                bank,
+                predictions,
                 belief.weights,
                 belief.uniform,
                 kernel.low,
                 kernel.spacing,
                 kernel.n_points,
                 kernel.periodic,
-                rows,
             )
             result[start : start + block.shape[0]] = kernel.smoothed_entropy(histograms)
         return result
@@ -115,8 +111,7 @@ class AdditiveFFTEstimator(MIEstimator):
                 self.kernel, side_a, side_b, belief.weights, belief.uniform
             )
         else:
-            bank, rows = cache.prediction_rows(np.concatenate([poses_a, poses_b]))
-            predictions = _exact_dtype(bank[rows])
+            predictions = _exact_dtype(cache.predictions(np.concatenate([poses_a, poses_b])))
             joint = full_grid_pair_entropies(
                 self.kernel,
                 predictions[: poses_a.shape[0]],

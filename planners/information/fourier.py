@@ -207,20 +207,19 @@ class ShiftKernelEstimator(MIEstimator):
             )
         if not (np.all(np.isfinite(centre)) and np.all(np.isfinite(shape))):
             raise ValueError("kernel_parameters returned non-finite values")
-        angle = (centre - self.table.low) * self._frequencies[1]
         n_rows = self.n_points // 2 + 1
-        if self.table.compiled:
-            # NumPy's ufuncs for the transcendentals, one compiled pass for the rest
-            u = self.table.shape_coordinates(shape)
+        if self.table.compiled:  # NumPy's log1p, one compiled pass for the rest
             return kernel_spectra(
-                u,
-                np.cos(angle),
-                np.sin(angle),
+                self.table.shape_coordinates(shape),
+                centre,
+                self.table.low,
+                self._frequencies[1],
                 self.table.rows,  # type: ignore[arg-type]
                 self.table.entropies,
                 self.harmonics,
                 n_rows,
             )
+        angle = (centre - self.table.low) * self._frequencies[1]
         coefficients, h = self.table.interpolate(shape)
         step = (np.cos(angle) - 1j * np.sin(angle)).astype(np.complex64)  # e^{-i w_1 (c - low)}
         n_poses, n = expected

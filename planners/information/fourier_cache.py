@@ -2,11 +2,11 @@
 
 One :class:`FourierCache` belongs to one :class:`~infoseek.planners.information.base.BeliefMI`
 (it lives in the belief's cache). Spectra ``(Q // 2 + 1, N)`` complex64 and channels
-``(Q, N)`` float32 of every pose asked for are rows of two
+``(Q, N)`` float32 of every pose asked for are kept by two
 :class:`~infoseek.planners.information.pose_rows.PoseRows`, each with the pose's conditional
-entropy ``H(z | theta) = sum_n w_n h(s_n)``. Poses computed together are consecutive rows, so
-the pose sets of a planner (a vehicle's candidates) are views of the banks, not copies; other
-sets are gathered. Each pose is computed exactly as alone, so the values do not depend on what
+entropy ``H(z | theta) = sum_n w_n h(s_n)``. Poses computed together stay together, so the
+pose sets of a planner (a vehicle's candidates) are views, not copies; other sets are
+gathered. Each pose is computed exactly as alone, so the values do not depend on what
 was cached before.
 """
 
@@ -24,15 +24,7 @@ from infoseek.planners.information.pose_rows import PoseRows
 if TYPE_CHECKING:
     from infoseek.planners.information.fourier import ShiftKernelEstimator
 
-__all__ = ["FourierCache", "rows_block"]
-
-
-def rows_block(bank: NDArray[Any], rows: NDArray[np.int64]) -> NDArray[Any]:
-    """``bank[rows]``: a view when the rows are consecutive, else a gathered copy."""
-    if rows.shape[0] and rows[-1] - rows[0] + 1 == rows.shape[0]:
-        if rows.shape[0] == 1 or bool(np.all(np.diff(rows) == 1)):
-            return bank[int(rows[0]) : int(rows[-1]) + 1]
-    return bank[rows]
+__all__ = ["FourierCache"]
 
 
 class FourierCache:
@@ -61,8 +53,8 @@ class FourierCache:
     def spectra(self, poses: FloatArray) -> tuple[NDArray[np.complex64], FloatArray]:
         """``(X (P, Q // 2 + 1, N), conditional (P,))`` of ``poses``."""
         rows = self._spectra.lookup(poses, self._compute_spectra)
-        spectra = rows_block(self._spectra.bank("spectra"), rows)
-        return spectra, self._spectra.bank("conditional")[rows]  # type: ignore[return-value]
+        spectra = self._spectra.take("spectra", rows)
+        return spectra, self._spectra.take("conditional", rows)  # type: ignore[return-value]
 
     def _compute_channels(self, poses: FloatArray) -> dict[str, NDArray[Any]]:
         spectra, conditional = self.spectra(poses)
@@ -72,5 +64,5 @@ class FourierCache:
     def channels(self, poses: FloatArray) -> tuple[NDArray[np.float32], FloatArray]:
         """``(P, Q, N)`` float32 channels and ``(P,)`` conditional entropies of ``poses``."""
         rows = self._channels.lookup(poses, self._compute_channels)
-        channels = rows_block(self._channels.bank("channels"), rows)
-        return channels, self._channels.bank("conditional")[rows]  # type: ignore[return-value]
+        channels = self._channels.take("channels", rows)
+        return channels, self._channels.take("conditional", rows)  # type: ignore[return-value]

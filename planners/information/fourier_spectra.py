@@ -11,14 +11,17 @@ phase factors are powers of ``e_1 = float32(cos(w_1 (c - low))) - i float32(sin(
 (``e_k = e_{k - 1} e_1``, complex64). The kernel entropy ``h = h_g + (u - g)(h_{g + 1} - h_g)``
 comes with it (float64).
 
-NumPy's ufuncs compute ``u``, ``cos`` and ``sin`` (the C library's transcendentals in the pinned
-environment, NumPy's SIMD loops elsewhere); the kernel does everything after them in one pass,
-with NumPy's complex64 products (:mod:`~infoseek.planners.information.fused`) in the order of
-the array code it replaces (the powers first, then each times its coefficient), so the spectra
-are the same bit for bit, without the ``(P, N, 2, K + 1)`` gathered coefficient table.
+NumPy's ``log1p`` computes ``u`` (its SIMD loop outside the pinned environment is much faster
+than the C library's); the kernel does everything else in one pass: the phase ``cos`` and
+``sin`` (the C library's, which NumPy's float64 ``cos`` and ``sin`` call too), and NumPy's
+complex64 products (:mod:`~infoseek.planners.information.fused`) in the order of the array code
+it replaces (the powers first, then each times its coefficient), so the spectra are the same bit
+for bit, without the ``(P, N, 2, K + 1)`` gathered coefficient table.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numpy.typing import NDArray
@@ -34,8 +37,9 @@ __all__ = ["kernel_spectra"]
 @kernel
 def _spectra(
     u: FloatArray,
-    cosine: FloatArray,
-    sine: FloatArray,
+    centre: FloatArray,
+    low: float,
+    frequency: float,
     table: NDArray[np.float32],
     entropies: FloatArray,
     harmonics: int,
@@ -60,9 +64,11 @@ def _spectra(
             fraction[i] = np.float32(t)
             entropy[p, i] = entropies[g] + t * (entropies[g + 1] - entropies[g])
             # cos - 1j sin in complex128 (1j sin = (0 sin - 1 0, sin)), then complex64
-            real_part = (0.0 * sine[p, i]) + -(1.0 * 0.0)
-            step_real[i] = np.float32(cosine[p, i] - real_part)
-            step_imag[i] = np.float32(0.0 - sine[p, i])
+            angle = (centre[p, i] - low) * frequency
+            cosine, sine = math.cos(angle), math.sin(angle)
+            real_part = (0.0 * sine) + -(1.0 * 0.0)
+            step_real[i] = np.float32(cosine - real_part)
+            step_imag[i] = np.float32(0.0 - sine)
             power_real[i], power_imag[i] = np.float32(1.0), zero
         for k in range(harmonics + 1):
             for i in range(n):
@@ -81,8 +87,9 @@ def _spectra(
 
 def kernel_spectra(
     u: FloatArray,
-    cosine: FloatArray,
-    sine: FloatArray,
+    centre: FloatArray,
+    low: float,
+    frequency: float,
     table: NDArray[np.float32],
     entropies: FloatArray,
     harmonics: int,
@@ -92,7 +99,9 @@ def kernel_spectra(
 
     Args:
         u: ``(P, N)`` shape coordinates ``log1p(clip(s, 0, s_max)) / spacing`` (float64).
-        cosine, sine: ``(P, N)`` ``cos`` and ``sin`` of ``w_1 (c - low)`` (float64).
+        centre: ``(P, N)`` kernel centres ``c`` (float64).
+        low: The domain's lower bound.
+        frequency: ``w_1 = 2 pi / L``.
         table: ``(G, 2, K' + 1)`` float32 coefficient values and slopes to the next node
             (``G >= 2``, ``K' >= K``).
         entropies: ``(G,)`` kernel entropies at the nodes.
@@ -106,8 +115,7 @@ def kernel_spectra(
         TypeError, ValueError: An array of another dtype or shape, or a table too small.
     """
     u = require(u, "u", np.float64, (None, None))
-    cosine = require(cosine, "cosine", np.float64, u.shape)
-    sine = require(sine, "sine", np.float64, u.shape)
+    centre = require(centre, "centre", np.float64, u.shape)
     table = require(table, "table", np.float32, (None, 2, None))
     entropies = require(entropies, "entropies", np.float64, (table.shape[0],))
     if table.shape[0] < 2 or table.shape[2] <= harmonics or n_rows <= harmonics:
@@ -118,5 +126,5 @@ def kernel_spectra(
     if u.size and not (np.all(u >= 0.0) and np.all(np.isfinite(u))):
         raise ValueError("u must be finite and >= 0")
     return _spectra(  # type: ignore[no-any-return]
-        u, cosine, sine, table, entropies, int(harmonics), int(n_rows)
+        u, centre, float(low), float(frequency), table, entropies, int(harmonics), int(n_rows)
     )

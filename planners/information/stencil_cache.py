@@ -4,19 +4,19 @@ One :class:`StencilCache` belongs to one :class:`~infoseek.planners.information.
 (it lives in the belief's cache, so it lives exactly as long as the belief). It keeps
 
 * the float32 particles, once;
-* the float32 noise-free predictions ``(N,)`` of every pose asked for, as rows of one
+* the float32 noise-free predictions ``(N,)`` of every pose asked for, in one
   :class:`~infoseek.planners.information.pose_rows.PoseRows` (computed by ``sensor.predict``
   for the new poses of a request, in one call);
 * the window stencils (:mod:`~infoseek.planners.information.windows`) of every pose asked for
-  in a pair, as rows of a second one (computed by the compiled
-  :func:`~infoseek.planners.information.window_stencils.pose_windows` from the prediction
-  rows);
+  in a pair, in a second one (computed by the compiled
+  :func:`~infoseek.planners.information.window_stencils.pose_windows` from the predictions);
 * one :class:`~infoseek.planners.information.windows.WindowSide` per pose set (its dense
   stencil matrices are built once per set: a vehicle's candidates are one set for the whole
   coordination).
 
-The kernels read the rows in place. Everything is computed exactly as the per-pose code it
-replaces, so the values do not depend on what was cached before.
+A pose set computed together (a vehicle's candidates) is a view of its block. Everything is
+computed exactly as the per-pose code it replaces, so the values do not depend on what was
+cached before.
 """
 
 from __future__ import annotations
@@ -49,8 +49,8 @@ class StencilCache:
         self.sensor = sensor
         self.kernel = kernel
         self.particles32 = np.ascontiguousarray(particles, dtype=np.float32)
-        self.predictions = PoseRows(CACHE_BYTES // 2)
-        self.windows = PoseRows(CACHE_BYTES // 4)
+        self.prediction_table = PoseRows(CACHE_BYTES // 2)
+        self.window_table = PoseRows(CACHE_BYTES // 4)
         self._sides: dict[bytes, WindowSide] = {}
         self._sides_generation = 0
 
@@ -58,7 +58,7 @@ class StencilCache:
     def nbytes(self) -> int:
         """Bytes held."""
         sides = sum(side.nbytes for side in self._sides.values())
-        return self.predictions.nbytes + self.windows.nbytes + sides
+        return self.prediction_table.nbytes + self.window_table.nbytes + sides
 
     # -- predictions
     def _predict(self, poses: FloatArray) -> dict[str, NDArray[Any]]:
@@ -74,47 +74,44 @@ class StencilCache:
             raise ValueError("sensor.predict returned NaN")
         return {"predictions": predicted[..., 0]}
 
-    def prediction_rows(self, poses: FloatArray) -> tuple[NDArray[Any], NDArray[np.int64]]:
-        """``(bank (R, N), rows (P,))``: the predictions of ``poses`` are ``bank[rows]``."""
-        rows = self.predictions.lookup(poses, self._predict)
-        return self.predictions.bank("predictions"), rows
+    def predictions(self, poses: FloatArray) -> NDArray[Any]:
+        """``(P, N)`` predictions of ``poses`` (float32 for a sensor with a float32 path)."""
+        rows = self.prediction_table.lookup(poses, self._predict)
+        return self.prediction_table.take("predictions", rows)
 
     # -- windows
     def _windows(self, poses: FloatArray) -> dict[str, NDArray[Any]]:
-        bank, rows = self.prediction_rows(poses)
-        if bank.dtype != np.float32:  # a sensor without a float32 path: its rows, rounded
-            bank, rows = bank[rows].astype(np.float32), np.arange(rows.shape[0])
+        predictions = np.asarray(self.predictions(poses), dtype=np.float32)
         kernel = self.kernel
         start, targets, weights, widths = pose_windows(
-            bank, kernel.low, kernel.spacing, kernel.n_points, kernel.periodic, rows
+            predictions, kernel.low, kernel.spacing, kernel.n_points, kernel.periodic
         )
         return {"start": start, "targets": targets, "weights": weights, "widths": widths}
 
     def sides(self, *pose_sets: FloatArray) -> list[WindowSide]:
         """The :class:`WindowSide` of each pose set (cached per set)."""
-        if self._sides_generation != self.windows.generation:
-            self._sides, self._sides_generation = {}, self.windows.generation
+        table = self.window_table
+        if self._sides_generation != table.generation:
+            self._sides, self._sides_generation = {}, table.generation
         keys = [poses.tobytes() for poses in pose_sets]
         missing = [p for p, key in enumerate(keys) if key not in self._sides]
         if missing:
-            rows = self.windows.lookup(
+            blocks, offsets = table.lookup(
                 np.concatenate([pose_sets[p] for p in missing]), self._windows
             )
-            if self._sides_generation != self.windows.generation:  # the banks started again
-                self._sides, self._sides_generation = {}, self.windows.generation
+            if self._sides_generation != table.generation:  # the blocks were dropped
+                self._sides, self._sides_generation = {}, table.generation
                 return self.sides(*pose_sets)
-            start, widths = self.windows.bank("start"), self.windows.bank("widths")
             offset = 0
             for p in missing:
-                count = pose_sets[p].shape[0]
-                own = rows[offset : offset + count]
-                offset += count
+                own = slice(offset, offset + pose_sets[p].shape[0])
+                offset = own.stop
+                rows = (blocks[own], offsets[own])
                 self._sides[keys[p]] = WindowSide(
                     self.kernel,
-                    start[own],  # type: ignore[arg-type]
-                    self.windows.bank("targets"),  # type: ignore[arg-type]
-                    self.windows.bank("weights"),  # type: ignore[arg-type]
-                    widths[own],  # type: ignore[arg-type]
-                    own,
+                    table.take("start", rows),  # type: ignore[arg-type]
+                    table.take("targets", rows),  # type: ignore[arg-type]
+                    table.take("weights", rows),  # type: ignore[arg-type]
+                    table.take("widths", rows),  # type: ignore[arg-type]
                 )
         return [self._sides[key] for key in keys]
