@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 from infoseek.envs.belief import check_belief_settings
 from infoseek.envs.belief_batch import BatchUpdate, BeliefBatch
 from infoseek.envs.config import SearchConfig
+from infoseek.envs.targets import StationaryTarget
 
 FloatArray = NDArray[np.float64]
 ObsArray = NDArray[np.float32]
@@ -193,10 +194,11 @@ class SearchCore:
             ),
             dtype=np.float64,
         ).reshape(shape)
-        for e in range(b):
-            self.targets[e] = config.target_motion.propagate(
-                self.targets[e][None, :], config.space, config.dt, self.target_rngs[e]
-            )[0]
+        if not isinstance(config.target_motion, StationaryTarget):  # the identity: no draw
+            for e in range(b):
+                self.targets[e] = config.target_motion.propagate(
+                    self.targets[e][None, :], config.space, config.dt, self.target_rngs[e]
+                )[0]
         positions = config.vehicle.position(self.states)
         measurements = self._measure(positions)
         reception = self._reception(positions)
