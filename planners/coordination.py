@@ -87,12 +87,15 @@ Everything here is a pure function of arrays and callables: the planners supply 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
+
+from infoseek.envs.compiled import kernel, pairwise_sum
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -164,8 +167,53 @@ def horizon_separation_penalty(
     other_positions = np.asarray(other_positions, dtype=np.float64)
     if other_positions.shape[-3] == 0:
         return np.zeros(positions.shape[:-2])
+    if positions.ndim in (2, 3) and other_positions.ndim in (3, positions.ndim + 1):
+        # compiled passes (_shortfalls, _row_sums), the same sums as the array expression below
+        rows = positions.reshape((-1,) + positions.shape[-2:])
+        others = other_positions.reshape((-1,) + other_positions.shape[-3:])
+        if others.shape[0] in (1, rows.shape[0]) and rows.shape[1:] == others.shape[2:]:
+            square = gamma == 2.0  # NumPy's ``** 2.0`` is a square; other powers are NumPy's
+            terms = _shortfalls(
+                np.ascontiguousarray(rows),
+                np.ascontiguousarray(others),
+                float(min_separation),
+                square,
+            )
+            penalty = _row_sums(terms if square else terms**gamma)
+            return penalty.reshape(positions.shape[:-2])  # type: ignore[no-any-return]
     gaps = np.linalg.norm(positions[..., None, :, :] - other_positions, axis=-1)  # (..., M, H)
     return np.sum(np.maximum(0.0, min_separation - gaps) ** gamma, axis=(-2, -1))
+
+
+@kernel
+def _shortfalls(
+    positions: FloatArray, others: FloatArray, min_separation: float, square: bool
+) -> FloatArray:
+    """``(C, M H)`` shortfalls ``max(0, d - gap)`` (squared if ``square``) of ``(C, H, 2)`` tracks
+    against ``(B, M, H, 2)`` tracks (``B = 1``: shared, ``B = C``: one set per candidate), the
+    gaps ``sqrt(dx^2 + dy^2)`` as ``numpy.linalg.norm`` forms them."""
+    n_rows, horizon = positions.shape[:2]
+    n_others = others.shape[1]
+    terms = np.empty((n_rows, n_others * horizon))
+    for c in range(n_rows):
+        b = 0 if others.shape[0] == 1 else c
+        for m in range(n_others):
+            for h in range(horizon):
+                dx = positions[c, h, 0] - others[b, m, h, 0]
+                dy = positions[c, h, 1] - others[b, m, h, 1]
+                shortfall = min_separation - math.sqrt(dx * dx + dy * dy)
+                shortfall = 0.0 if 0.0 >= shortfall else shortfall
+                terms[c, m * horizon + h] = shortfall * shortfall if square else shortfall
+    return terms
+
+
+@kernel
+def _row_sums(terms: FloatArray) -> FloatArray:
+    """NumPy's pairwise sum of every row (its sum over the trailing ``(M, H)`` axes)."""
+    sums = np.empty(terms.shape[0])
+    for row in range(terms.shape[0]):
+        sums[row] = pairwise_sum(terms[row])
+    return sums
 
 
 def separation_constraints(positions: FloatArray, min_separation: float) -> FloatArray:
@@ -191,6 +239,21 @@ def max_violation(positions: FloatArray, min_separation: float) -> float:
     if positions.shape[0] < 2:
         return 0.0
     return float(max(0.0, np.max(separation_constraints(positions, min_separation))))
+
+
+@kernel
+def _worst_violation(tracks: FloatArray, min_separation: float) -> float:
+    """``max(0, max_{h, i != m} d - ||x_i(h) - x_m(h)||)`` of ``(A, H, 2)`` tracks (the norms as
+    :func:`separation_constraints` forms them; a maximum is exact in any order)."""
+    worst = 0.0
+    for h in range(tracks.shape[1]):
+        for i in range(tracks.shape[0]):
+            for m in range(tracks.shape[0]):
+                if m != i:
+                    dx = tracks[i, h, 0] - tracks[m, h, 0]
+                    dy = tracks[i, h, 1] - tracks[m, h, 1]
+                    worst = max(worst, min_separation - math.sqrt(dx * dx + dy * dy))
+    return worst
 
 
 @dataclass(frozen=True)
@@ -433,8 +496,7 @@ def coordinate(
             copies[i, i] = best
             local_utilities[i] = u_i[best]
         change = max(
-            float(np.linalg.norm(controls[i][new_plans[i]] - controls[i][plans[i]]))
-            for i in range(n_vehicles)
+            _norm(controls[i][new_plans[i]] - controls[i][plans[i]]) for i in range(n_vehicles)
         )
         changes.append(change)
         plans = new_plans
@@ -463,10 +525,7 @@ def coordinate(
     residual = 0.0
     for i in range(n_vehicles):
         for j in range(n_vehicles):
-            residual = max(
-                residual,
-                float(np.linalg.norm(controls[j][copies[i, j]] - controls[j][plans[j]])),
-            )
+            residual = max(residual, _norm(controls[j][copies[i, j]] - controls[j][plans[j]]))
     return CoordinationResult(
         indices=plans,
         controls=final_controls,
@@ -484,8 +543,14 @@ def coordinate(
 
 
 def _horizon_violation(tracks: FloatArray, min_separation: float) -> float:
-    """Worst constraint value over the steps of ``(A, H, 2)`` tracks."""
-    return max(max_violation(tracks[:, h, :], min_separation) for h in range(tracks.shape[1]))
+    """Worst constraint value over the steps of ``(A, H, 2)`` tracks (0 when feasible)."""
+    tracks = np.ascontiguousarray(tracks, dtype=np.float64)
+    return float(_worst_violation(tracks, float(min_separation)))
+
+
+def _norm(vector: FloatArray) -> float:
+    """``numpy.linalg.norm`` of a 1-D float64 vector: the square root of its BLAS dot."""
+    return math.sqrt(float(vector.dot(vector)))
 
 
 def _checked_utility(

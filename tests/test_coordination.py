@@ -168,3 +168,22 @@ def test_grid_refiner_avoids_a_partner_and_keeps_the_grid_choice_on_ties() -> No
     np.testing.assert_allclose(track[:, 0], -0.5, atol=1e-12)
     with pytest.raises(ValueError, match="points_per_axis"):
         GridRefiner(axes, 1)
+
+
+@pytest.mark.parametrize("gamma", [2.0, 2.5, 3.0])
+@pytest.mark.parametrize(("n_others", "horizon"), [(1, 1), (3, 3), (9, 3), (4, 1)])
+def test_compiled_penalties_equal_the_numpy_expressions_bit_for_bit(gamma, n_others, horizon):
+    from infoseek.planners.coordination import _horizon_violation
+
+    rng = np.random.default_rng(n_others * 10 + horizon)
+    tracks = rng.uniform(-2.0, 2.0, (25, horizon, 2))
+    others = rng.uniform(-2.0, 2.0, (n_others, horizon, 2))
+    per_candidate = others[None] + rng.normal(0.0, 0.3, (25, n_others, horizon, 2))
+    for partners in (others, per_candidate):
+        gaps = np.linalg.norm(tracks[:, None, :, :] - partners, axis=-1)
+        expected = np.sum(np.maximum(0.0, 1.7 - gaps) ** gamma, axis=(-2, -1))
+        got = horizon_separation_penalty(tracks, partners, 1.7, gamma)
+        assert got.dtype == expected.dtype and got.tobytes() == expected.tobytes()
+    fleet = rng.uniform(-1.0, 1.0, (n_others + 1, horizon, 2))
+    expected_worst = max(max_violation(fleet[:, h, :], 1.2) for h in range(horizon))
+    assert _horizon_violation(fleet, 1.2) == expected_worst

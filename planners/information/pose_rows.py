@@ -25,7 +25,7 @@ __all__ = ["PoseRows"]
 
 Compute = Callable[[NDArray[np.float64]], Mapping[str, NDArray[np.generic]]]
 #: ``(block, offset)`` of every pose of a request.
-Rows = tuple[NDArray[np.int64], NDArray[np.int64]]
+Rows = list[tuple[int, int]]
 
 
 class PoseRows:
@@ -61,35 +61,29 @@ class PoseRows:
         index = self._index
         found = [index.get(key) for key in keys]
         missing = [p for p, row in enumerate(found) if row is None]
-        if missing:
-            fresh = compute(poses[missing])
-            size = sum(int(array.nbytes) for array in fresh.values())
-            if self._blocks and self.nbytes + size > self._budget:
-                self._index, self._blocks, self.nbytes = {}, [], 0
-                self.generation += 1
-                return self.lookup(poses, compute)  # every pose is new now: no second drop
-            block = len(self._blocks)
-            self._blocks.append(fresh)
-            self.nbytes += size
-            for offset, p in enumerate(missing):  # a repeated pose keeps its last row
-                index[keys[p]] = (block, offset)
-            found = [index[key] for key in keys]
-        blocks = np.array([row[0] for row in found], dtype=np.int64)  # type: ignore[index]
-        offsets = np.array([row[1] for row in found], dtype=np.int64)  # type: ignore[index]
-        return blocks, offsets
+        if not missing:
+            return found  # type: ignore[return-value]
+        fresh = compute(poses[missing])
+        size = sum(int(array.nbytes) for array in fresh.values())
+        if self._blocks and self.nbytes + size > self._budget:
+            self._index, self._blocks, self.nbytes = {}, [], 0
+            self.generation += 1
+            return self.lookup(poses, compute)  # every pose is new now: no second drop
+        block = len(self._blocks)
+        self._blocks.append(fresh)
+        self.nbytes += size
+        for offset, p in enumerate(missing):  # a repeated pose keeps its last row
+            index[keys[p]] = (block, offset)
+        return [index[key] for key in keys]
 
     def take(self, name: str, rows: Rows) -> NDArray[np.generic]:
         """The ``name`` arrays of ``rows`` stacked: a view of one block when the rows are
         consecutive rows of it, else a copy."""
-        blocks, offsets = rows
-        count = offsets.shape[0]
-        if count and blocks[0] == blocks[-1] and offsets[-1] - offsets[0] == count - 1:
-            if count == 1 or (np.all(blocks == blocks[0]) and np.all(np.diff(offsets) == 1)):
-                first = int(offsets[0])
-                return self._blocks[int(blocks[0])][name][first : first + count]
-        return np.stack(
-            [self._blocks[int(b)][name][int(o)] for b, o in zip(blocks, offsets, strict=True)]
-        )
+        if rows:
+            block, first = rows[0]
+            if all(row == (block, first + p) for p, row in enumerate(rows)):
+                return self._blocks[block][name][first : first + len(rows)]
+        return np.stack([self._blocks[block][name][offset] for block, offset in rows])
 
     def __repr__(self) -> str:
         return f"PoseRows(blocks={len(self._blocks)}, nbytes={self.nbytes})"

@@ -96,17 +96,14 @@ class StencilCache:
         keys = [poses.tobytes() for poses in pose_sets]
         missing = [p for p, key in enumerate(keys) if key not in self._sides]
         if missing:
-            blocks, offsets = table.lookup(
-                np.concatenate([pose_sets[p] for p in missing]), self._windows
-            )
+            found = table.lookup(np.concatenate([pose_sets[p] for p in missing]), self._windows)
             if self._sides_generation != table.generation:  # the blocks were dropped
                 self._sides, self._sides_generation = {}, table.generation
                 return self.sides(*pose_sets)
             offset = 0
             for p in missing:
-                own = slice(offset, offset + pose_sets[p].shape[0])
-                offset = own.stop
-                rows = (blocks[own], offsets[own])
+                rows = found[offset : offset + pose_sets[p].shape[0]]
+                offset += len(rows)
                 self._sides[keys[p]] = WindowSide(
                     self.kernel,
                     table.take("start", rows),  # type: ignore[arg-type]
