@@ -296,12 +296,17 @@ class NoiseKernel:
             grids = np.zeros((n_batch,) + (length,) * k, dtype=dtype)
             grids[(slice(None),) + (slice(0, q),) * k] = histograms
         axes = tuple(range(1, k + 1))
-        spectrum = scipy.fft.rfftn(grids, axes=axes, workers=1)
-        for d in range(k):
-            shape = [1] * (k + 1)
-            shape[d + 1] = -1
-            spectrum *= (self.spectrum if d == k - 1 else self._full_spectrum).reshape(shape)
-        density = scipy.fft.irfftn(spectrum, s=(length,) * k, axes=axes, workers=1)
+        if k == 1:  # the one-dimensional transforms (the same pocketfft plans, less dispatch)
+            spectrum = scipy.fft.rfft(grids, axis=1, workers=1)
+            spectrum *= self.spectrum
+            density = scipy.fft.irfft(spectrum, n=length, axis=1, workers=1)
+        else:
+            spectrum = scipy.fft.rfftn(grids, axes=axes, workers=1)
+            for d in range(k):
+                shape = [1] * (k + 1)
+                shape[d + 1] = -1
+                spectrum *= (self.spectrum if d == k - 1 else self._full_spectrum).reshape(shape)
+            density = scipy.fft.irfftn(spectrum, s=(length,) * k, axes=axes, workers=1)
         if length != q:
             density = density[(slice(None),) + (slice(0, q),) * k]
         if dtype is not np.float64:
