@@ -469,6 +469,7 @@ def coordinate(
     iterations = 0
     local_utilities = np.zeros(n_vehicles)
     last_beta = beta
+    fleet = _fleet_tracks(positions, settings)
     for iteration in range(1, settings.max_iterations + 1):
         iterations = iteration
         last_beta = beta
@@ -479,19 +480,14 @@ def coordinate(
             copy_i = view.copy()
             copies[i] = copy_i
             u_i = _checked_utility(utility, i, copy_i, controls[i].shape[0])
-            others = np.array(
-                [positions[j][copy_i[j]] for j in range(n_vehicles) if j != i]
-            ).reshape(-1, *positions[i].shape[1:])
-            if settings.schedule == "jacobi" and settings.reciprocal and others.shape[0] > 0:
-                # Reciprocal anticipation: partner j is assumed to mirror my displacement.
-                displacement = positions[i] - positions[i][exchanged[i]]  # (C_i, H, 2)
-                others = others[None, :, :] - displacement[:, None, :]
-            anchor = positions[i][exchanged[i]] if settings.schedule == "jacobi" else None
-            objective = local_objective(u_i, positions[i], others, anchor, beta, settings)
-            best = int(np.argmax(objective))
-            # Keep the previous plan on ties (no spurious changes).
-            if objective[exchanged[i]] >= objective[best]:
-                best = int(exchanged[i])
+            if fleet is not None:  # Gauss-Seidel, gamma = 2: one compiled pass
+                best = int(
+                    _gauss_seidel_choice(
+                        u_i, fleet, copy_i, i, int(exchanged[i]), beta, settings.min_separation
+                    )
+                )
+            else:
+                best = _local_choice(i, u_i, positions, copy_i, exchanged, beta, settings)
             new_plans[i] = best
             copies[i, i] = best
             local_utilities[i] = u_i[best]
@@ -540,6 +536,82 @@ def coordinate(
         max_violation=_horizon_violation(final_tracks, settings.min_separation),
         changes=tuple(changes),
     )
+
+
+def _local_choice(
+    i: int,
+    u_i: FloatArray,
+    positions: list[FloatArray],
+    copy_i: IntArray,
+    exchanged: IntArray,
+    beta: float,
+    settings: PenaltySettings,
+) -> int:
+    """Vehicle ``i``'s best candidate for eq. 29 against the plans ``copy_i`` (the previous plan
+    on ties)."""
+    others = np.array([positions[j][copy_i[j]] for j in range(len(positions)) if j != i]).reshape(
+        -1, *positions[i].shape[1:]
+    )
+    if settings.schedule == "jacobi" and settings.reciprocal and others.shape[0] > 0:
+        # Reciprocal anticipation: partner j is assumed to mirror my displacement.
+        displacement = positions[i] - positions[i][exchanged[i]]  # (C_i, H, 2)
+        others = others[None, :, :] - displacement[:, None, :]
+    anchor = positions[i][exchanged[i]] if settings.schedule == "jacobi" else None
+    objective = local_objective(u_i, positions[i], others, anchor, beta, settings)
+    best = int(np.argmax(objective))
+    # Keep the previous plan on ties (no spurious changes).
+    if objective[exchanged[i]] >= objective[best]:
+        best = int(exchanged[i])
+    return best
+
+
+def _fleet_tracks(positions: list[FloatArray], settings: PenaltySettings) -> FloatArray | None:
+    """``(A, C, H, 2)`` candidate tracks of every vehicle when :func:`_gauss_seidel_choice`
+    serves the program (Gauss-Seidel, ``gamma = 2``, one candidate count), else ``None``."""
+    if settings.schedule != "gauss-seidel" or settings.gamma != 2.0:
+        return None
+    if any(track.shape != positions[0].shape for track in positions):
+        return None
+    return np.ascontiguousarray(np.stack(positions))
+
+
+@kernel
+def _gauss_seidel_choice(
+    utilities: FloatArray,
+    fleet: FloatArray,
+    plans: IntArray,
+    vehicle: int,
+    previous: int,
+    beta: float,
+    min_separation: float,
+) -> int:
+    """:func:`_local_choice` of a Gauss-Seidel sweep with ``gamma = 2``: the objective
+    ``u - P / beta`` of every candidate (the penalty of :func:`horizon_separation_penalty`
+    against the partners' planned tracks in vehicle order, summed as NumPy sums it), its first
+    maximum, and the previous plan kept on ties."""
+    n_vehicles, n_candidates, horizon = fleet.shape[:3]
+    terms = np.empty((n_vehicles - 1) * horizon)
+    objective = np.empty(n_candidates)
+    best = 0
+    for c in range(n_candidates):
+        slot = 0
+        for j in range(n_vehicles):
+            if j == vehicle:
+                continue
+            for h in range(horizon):
+                dx = fleet[vehicle, c, h, 0] - fleet[j, plans[j], h, 0]
+                dy = fleet[vehicle, c, h, 1] - fleet[j, plans[j], h, 1]
+                shortfall = min_separation - math.sqrt(dx * dx + dy * dy)
+                shortfall = 0.0 if 0.0 >= shortfall else shortfall
+                terms[slot] = shortfall * shortfall
+                slot += 1
+        objective[c] = utilities[c] - pairwise_sum(terms) / beta
+        # numpy.argmax: the first maximum, or the first NaN
+        if objective[best] == objective[best] and not objective[c] <= objective[best]:
+            best = c
+    if objective[previous] >= objective[best]:
+        best = previous
+    return best
 
 
 def _horizon_violation(tracks: FloatArray, min_separation: float) -> float:

@@ -187,3 +187,22 @@ def test_compiled_penalties_equal_the_numpy_expressions_bit_for_bit(gamma, n_oth
     fleet = rng.uniform(-1.0, 1.0, (n_others + 1, horizon, 2))
     expected_worst = max(max_violation(fleet[:, h, :], 1.2) for h in range(horizon))
     assert _horizon_violation(fleet, 1.2) == expected_worst
+
+
+def test_compiled_gauss_seidel_choice_equals_the_general_local_solve():
+    from infoseek.planners.coordination import _gauss_seidel_choice, _local_choice
+
+    rng = np.random.default_rng(21)
+    settings = PenaltySettings(min_separation=1.5)
+    for _ in range(40):
+        n, c, h = rng.integers(1, 6), rng.integers(1, 12), rng.integers(1, 4)
+        positions = [rng.uniform(0.0, 3.0, (c, h, 2)) for _ in range(n)]
+        plans = rng.integers(0, c, n)
+        utilities = np.round(rng.standard_normal(c), 1)  # ties
+        for i in range(n):
+            previous = int(rng.integers(0, c))
+            exchanged = plans.copy()
+            exchanged[i] = previous
+            expected = _local_choice(i, utilities, positions, plans, exchanged, 0.3, settings)
+            fleet = np.stack(positions)
+            assert _gauss_seidel_choice(utilities, fleet, plans, i, previous, 0.3, 1.5) == expected
