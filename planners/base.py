@@ -19,9 +19,11 @@ action per agent inside ``env.action_space(agent)`` (:mod:`infoseek.planners.con
 
 from __future__ import annotations
 
+import contextlib
+import os
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar, Self
 
@@ -182,6 +184,51 @@ class PlanDiagnostics:
         )
 
 
+class BlasThreads:
+    """The BLAS thread count a planner decides with: one, as every ``infoseek`` command and every
+    stored trial runs (:mod:`infoseek.experiments.threads`), unless ``INFOSEEK_THREADS`` says
+    otherwise (a count, or ``0`` for the library's default).
+
+    The utilities are many small float32 matrix products: a second OpenBLAS thread gains little
+    on them and, on a machine whose other cores are busy, waits for a core (a four-airplane
+    decision took ~40 ms instead of ~4 ms with two threads on a shared 2-core machine). OpenBLAS
+    also sums some products in another order with another thread count, so one thread makes a
+    planner called from Python decide as the stored trials did. The limit holds during
+    :meth:`Planner.act` only (``threadpoolctl``; the controller is built on first use).
+    """
+
+    def __init__(self) -> None:
+        self._controller: Any = None
+
+    @staticmethod
+    def count() -> int | None:
+        """The thread count (``None``: leave the library's default).
+
+        Raises:
+            ValueError: ``INFOSEEK_THREADS`` is not a non-negative integer.
+        """
+        text = os.environ.get("INFOSEEK_THREADS", "1").strip()
+        if not text.isdigit():
+            raise ValueError(
+                f"INFOSEEK_THREADS={text!r}: expected a number of threads (0: default)"
+            )
+        return int(text) or None
+
+    @contextlib.contextmanager
+    def limited(self) -> Iterator[None]:
+        """Run the block with :meth:`count` BLAS threads."""
+        count = self.count()
+        if count is None:
+            yield
+            return
+        if self._controller is None:
+            from threadpoolctl import ThreadpoolController
+
+            self._controller = ThreadpoolController()
+        with self._controller.limit(limits=count, user_api="blas"):
+            yield
+
+
 class InformationPlanner(Planner):
     """Shared machinery of the mutual-information planners.
 
@@ -215,6 +262,7 @@ class InformationPlanner(Planner):
         )
         self._refiner = self._build_refiner() if config.refine else None
         self._utility_seconds = 0.0
+        self._threads = BlasThreads()
 
     def _build_refiner(self) -> GridRefiner | None:
         """The refiner of continuous actions on a tensor candidate grid (else ``None``)."""
@@ -296,6 +344,13 @@ class InformationPlanner(Planner):
     def _plan(
         self, agents: list[str], states: FloatArray, infos: Mapping[str, Any]
     ) -> dict[str, Any]:
+        with self._threads.limited():
+            return self._decide(agents, states, infos)
+
+    def _decide(
+        self, agents: list[str], states: FloatArray, infos: Mapping[str, Any]
+    ) -> dict[str, Any]:
+        """One decision (the class docstring's steps 1-7)."""
         start = time.perf_counter()
         self._utility_seconds = 0.0
         if len(agents) < self.min_agents:

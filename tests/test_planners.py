@@ -205,3 +205,24 @@ def test_planners_score_with_the_likelihood_the_beliefs_apply() -> None:
         exact -= np.logaddexp.reduce(exact)
         assert not np.allclose(infos[agent]["belief"].log_weights, exact, atol=1e-3)
     assert planner.model.sensor.max_snr == 5.0 and base.sensor.max_snr == np.inf
+
+
+def test_planner_decides_with_one_blas_thread_and_restores_the_pool(monkeypatch):
+    from threadpoolctl import threadpool_info
+
+    from infoseek.planners.base import BlasThreads
+
+    def blas_threads() -> list[int]:
+        return [info["num_threads"] for info in threadpool_info() if info["user_api"] == "blas"]
+
+    before = blas_threads()
+    seen: list[list[int]] = []
+    threads = BlasThreads()
+    with threads.limited():
+        seen.append(blas_threads())
+    assert all(count == 1 for count in seen[0]) and blas_threads() == before
+    monkeypatch.setenv("INFOSEEK_THREADS", "0")
+    assert BlasThreads.count() is None
+    monkeypatch.setenv("INFOSEEK_THREADS", "two")
+    with pytest.raises(ValueError, match="INFOSEEK_THREADS"):
+        BlasThreads.count()
