@@ -185,9 +185,9 @@ class PlanDiagnostics:
 
 
 class BlasThreads:
-    """The BLAS thread count a planner decides with: one, as every ``infoseek`` command and every
-    stored trial runs (:mod:`infoseek.experiments.threads`), unless ``INFOSEEK_THREADS`` says
-    otherwise (a count, or ``0`` for the library's default).
+    """The BLAS thread count a planner decides with: one, as every stored trial runs
+    (:func:`infoseek.experiments.bench.run_trial`), unless ``INFOSEEK_THREADS`` says otherwise
+    (a count, or ``0`` for the library's default).
 
     The utilities are many small float32 matrix products: a second OpenBLAS thread gains little
     on them and, on a machine whose other cores are busy, waits for a core (a four-airplane

@@ -70,7 +70,7 @@ def controls_to_actions(
     the nearest discrete control (an ``int``).
     """
     controls = np.asarray(controls, dtype=np.float64).reshape(len(agents), -1)
-    if not np.all(np.isfinite(controls)):
+    if not np.isfinite(controls).all():
         raise ValueError(f"controls must be finite, got {controls}")
     actions: dict[str, Any] = {}
     if model.action_type == "discrete":
@@ -102,6 +102,6 @@ def read_states(model: EnvModel, infos: Mapping[str, Any], agents: Sequence[str]
         raise ValueError(
             f"infos[{agent!r}]['vehicle_states'] must have shape {expected}, got {states.shape}"
         )
-    if not np.all(np.isfinite(states)):
+    if not np.isfinite(states).all():
         raise ValueError(f"infos[{agent!r}]['vehicle_states'] contains non-finite values")
     return states

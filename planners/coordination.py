@@ -369,7 +369,7 @@ def _validate_candidates(
                 f"candidate_positions[{i}] must have shape ({u.shape[0]}, 2) or "
                 f"({u.shape[0]}, H, 2), got {x.shape}"
             )
-        if not (np.all(np.isfinite(u)) and np.all(np.isfinite(x))):
+        if not (np.isfinite(u).all() and np.isfinite(x).all()):
             raise ValueError(f"vehicle {i}: candidate controls/positions must be finite")
         controls_out.append(u)
         positions_out.append(x)
@@ -633,6 +633,6 @@ def _checked_utility(
         raise ValueError(
             f"utility for vehicle {i} must return shape ({n_candidates},), got {values.shape}"
         )
-    if not np.all(np.isfinite(values)):
+    if not np.isfinite(values).all():
         raise ValueError(f"utility for vehicle {i} returned non-finite values")
     return values

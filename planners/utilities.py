@@ -325,9 +325,9 @@ def subsample_particles(
     if isinstance(n_planning, bool) or int(n_planning) != n_planning or n_planning < 1:
         raise ValueError(f"n_planning must be an integer >= 1, got {n_planning}")
     particles, weights = _belief_arrays(belief)
-    if weights.shape != (particles.shape[0],) or not np.all(np.isfinite(weights)):
+    if weights.shape != (particles.shape[0],) or not np.isfinite(weights).all():
         raise ValueError("belief.weights must be a finite (N,) array matching belief.particles")
-    if np.any(weights < 0) or not weights.sum() > 0:
+    if (weights < 0).any() or not weights.sum() > 0:
         raise ValueError("belief.weights must be non-negative with a positive sum")
     weights = weights / weights.sum()
     n_planning = int(n_planning)

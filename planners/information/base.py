@@ -132,14 +132,14 @@ def check_belief(particles: Any, weights: Any) -> tuple[FloatArray, FloatArray]:
         raise ValueError(
             f"particles must have shape (N, target_dim), N >= 1; got {particles.shape}"
         )
-    if not np.all(np.isfinite(particles)):
+    if not np.isfinite(particles).all():
         raise ValueError("particles must be finite")
     weights = np.asarray(weights, dtype=np.float64)
     if weights.shape != (particles.shape[0],):
         raise ValueError(
             f"weights must have shape ({particles.shape[0]},) like particles; got {weights.shape}"
         )
-    if not np.all(np.isfinite(weights)) or np.any(weights < 0):
+    if not np.isfinite(weights).all() or (weights < 0).any():
         raise ValueError("weights must be finite and non-negative")
     total = weights.sum()
     if not total > 0:
@@ -162,7 +162,7 @@ def check_poses(sensor: Sensor, poses: Any, name: str, shape: str) -> FloatArray
             f"{name} must have shape {shape} with pose_dim={pose_dim} and no empty axis; "
             f"got {poses.shape}"
         )
-    if not np.all(np.isfinite(poses)):
+    if not np.isfinite(poses).all():
         raise ValueError(f"{name} must be finite")
     return poses
 

@@ -205,7 +205,7 @@ class ShiftKernelEstimator(MIEstimator):
                 f"kernel_parameters returned shapes {centre.shape} and {shape.shape}, expected "
                 f"{expected}"
             )
-        if not (np.all(np.isfinite(centre)) and np.all(np.isfinite(shape))):
+        if not (np.isfinite(centre).all() and np.isfinite(shape).all()):
             raise ValueError("kernel_parameters returned non-finite values")
         n_rows = self.n_points // 2 + 1
         if self.table.compiled:  # NumPy's log1p, one compiled pass for the rest

@@ -123,7 +123,7 @@ def kernel_spectra(
             f"table {table.shape} must have >= 2 nodes and more than K = {harmonics} harmonics, "
             f"and n_rows = {n_rows} more than K rows"
         )
-    if u.size and not (np.all(u >= 0.0) and np.all(np.isfinite(u))):
+    if u.size and not ((u >= 0.0).all() and np.isfinite(u).all()):
         raise ValueError("u must be finite and >= 0")
     return _spectra(  # type: ignore[no-any-return]
         u, centre, float(low), float(frequency), table, entropies, int(harmonics), int(n_rows)

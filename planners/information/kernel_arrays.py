@@ -37,6 +37,14 @@ def require(
         ValueError: ``value`` has another number of axes or a wrong length on an axis.
     """
     expected = np.dtype(dtype)
+    if (
+        type(value) is np.ndarray
+        and value.dtype == expected
+        and value.ndim == len(shape)
+        and value.flags.c_contiguous
+        and all(want is None or have == want for have, want in zip(value.shape, shape, strict=True))
+    ):
+        return value  # the common case, checked cheaply
     if not isinstance(value, np.ndarray):
         raise TypeError(
             f"{name} must be a numpy array of {expected.name}, got {type(value).__name__}"

@@ -79,11 +79,20 @@ class PoseRows:
     def take(self, name: str, rows: Rows) -> NDArray[np.generic]:
         """The ``name`` arrays of ``rows`` stacked: a view of one block when the rows are
         consecutive rows of it, else a copy."""
+        return self.take_all((name,), rows)[0]
+
+    def take_all(self, names: tuple[str, ...], rows: Rows) -> list[NDArray[np.generic]]:
+        """:meth:`take` of several kinds of the same rows."""
         if rows:
             block, first = rows[0]
-            if all(row == (block, first + p) for p, row in enumerate(rows)):
-                return self._blocks[block][name][first : first + len(rows)]
-        return np.stack([self._blocks[block][name][offset] for block, offset in rows])
+            last = first + len(rows) - 1
+            if rows[-1] == (block, last) and rows == [(block, o) for o in range(first, last + 1)]:
+                arrays = self._blocks[block]
+                return [arrays[name][first : last + 1] for name in names]
+        return [
+            np.stack([self._blocks[block][name][offset] for block, offset in rows])
+            for name in names
+        ]
 
     def __repr__(self) -> str:
         return f"PoseRows(blocks={len(self._blocks)}, nbytes={self.nbytes})"

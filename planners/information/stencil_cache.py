@@ -35,6 +35,8 @@ from infoseek.planners.information.windows import WindowSide
 
 __all__ = ["StencilCache"]
 
+_WINDOW_KINDS = ("start", "targets", "weights", "widths")
+
 
 class StencilCache:
     """Predictions and window stencils of one belief (module docstring).
@@ -104,11 +106,12 @@ class StencilCache:
             for p in missing:
                 rows = found[offset : offset + pose_sets[p].shape[0]]
                 offset += len(rows)
+                start, targets, weights, widths = table.take_all(_WINDOW_KINDS, rows)
                 self._sides[keys[p]] = WindowSide(
                     self.kernel,
-                    table.take("start", rows),  # type: ignore[arg-type]
-                    table.take("targets", rows),  # type: ignore[arg-type]
-                    table.take("weights", rows),  # type: ignore[arg-type]
-                    table.take("widths", rows),  # type: ignore[arg-type]
+                    start,  # type: ignore[arg-type]
+                    targets,  # type: ignore[arg-type]
+                    weights,  # type: ignore[arg-type]
+                    widths,  # type: ignore[arg-type]
                 )
         return [self._sides[key] for key in keys]
