@@ -22,8 +22,10 @@ Subcommands:
 * ``infoseek train``: train one parameter-shared RL policy (PPO, SAC or TD3) on an environment's
   entropy-reduction reward (:mod:`infoseek.experiments.train`, needs the ``rl`` extra).
 
-Errors in the arguments or the results directory print ``infoseek COMMAND: error: ...`` on
-stderr and make :func:`main` return 2; nothing already stored is changed.
+Errors in the arguments or the results directory print
+``infoseek COMMAND: error: ...`` on stderr and make :func:`main` return 2; nothing already
+stored is changed. Every command runs with one BLAS/OpenMP/torch thread unless
+``INFOSEEK_THREADS`` says otherwise (:mod:`infoseek.experiments.threads`).
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ from infoseek.experiments.arguments import (
 )
 from infoseek.experiments.claims import add_claims_arguments, run_claims
 from infoseek.experiments.demo import add_demo_arguments, run_demo
+from infoseek.experiments.threads import limited_threads
 from infoseek.experiments.timing import add_timing_arguments, run_timing
 from infoseek.experiments.train import add_train_arguments, run_train
 
@@ -503,7 +506,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as exit_:  # argparse: --help (0) or a usage error (2, message printed)
         return exit_.code if isinstance(exit_.code, int) else 2
     try:
-        return int(args.handler(args) or 0)
+        with limited_threads():
+            return int(args.handler(args) or 0)
     except KeyboardInterrupt:
         print(f"infoseek {args.command}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -1,8 +1,10 @@
 """The ``infoseek`` console entry point: pins the numerical environment, then runs the CLI.
 
 Commands that run trials (``bench``, ``reproduce``, ``verify``) need the pinned numerical
-environment of :mod:`infoseek.experiments.numerics` before NumPy is loaded; this module sets it
-and only then imports :mod:`infoseek.experiments.cli`.
+environment of :mod:`infoseek.experiments.numerics` before NumPy is loaded, and every command
+runs with one BLAS/OpenMP thread by default (:mod:`infoseek.experiments.threads`, opt out with
+``INFOSEEK_THREADS``); this module sets both and only then imports
+:mod:`infoseek.experiments.cli`.
 """
 
 from __future__ import annotations
@@ -10,16 +12,18 @@ from __future__ import annotations
 import sys
 
 from infoseek.experiments.numerics import pin
+from infoseek.experiments.threads import limit_threads_early
 
 #: Commands whose trials must reproduce on any machine.
 TRIAL_COMMANDS = frozenset({"bench", "reproduce", "verify"})
 
 
 def main() -> int:
-    """Pin (for trial commands), stop on SIGINT/SIGTERM as on Ctrl-C, then
-    ``infoseek.experiments.cli.main``."""
+    """Pin (for trial commands), one thread (every command), stop on SIGINT/SIGTERM as on
+    Ctrl-C, then ``infoseek.experiments.cli.main``."""
     if len(sys.argv) > 1 and sys.argv[1] in TRIAL_COMMANDS:
         pin()
+    limit_threads_early()
     from infoseek.experiments.cli import main as cli_main
     from infoseek.experiments.cli import stop_on_signals
 
