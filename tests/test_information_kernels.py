@@ -421,3 +421,19 @@ def test_pair_grids_equal_the_numpy_transpose_bit_for_bit():
     assert _same(pair_grids(joint, n_a, n_b, q), expected)
     with pytest.raises(ValueError, match="joint must have shape"):
         pair_grids(joint, n_a, n_b + 1, q)
+
+
+def test_filter_spectra_equals_numpy_in_place_products_bit_for_bit():
+    from infoseek.planners.information.spectral_filter import filter_spectra
+
+    rng = np.random.default_rng(14)
+    spectra = rng.standard_normal((4, 96, 49)) + 1j * rng.standard_normal((4, 96, 49))
+    full = rng.standard_normal(96) + 1j * rng.standard_normal(96)
+    half = rng.standard_normal(49) + 1j * rng.standard_normal(49)
+    expected = spectra.copy()
+    expected *= full.reshape(1, -1, 1)
+    expected *= half.reshape(1, 1, -1)
+    filter_spectra(spectra, full, half)
+    assert _same(spectra, expected)
+    with pytest.raises(ValueError, match="half must have shape"):
+        filter_spectra(spectra, full, half[:5])

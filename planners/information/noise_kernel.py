@@ -41,6 +41,7 @@ from infoseek.planners.information.channels import entropy
 from infoseek.planners.information.grid_entropy import entropy_sums, normalise_rows
 from infoseek.planners.information.moment_histograms import single_stencil_histograms
 from infoseek.planners.information.quadrature import observation_nodes
+from infoseek.planners.information.spectral_filter import filter_spectra
 
 __all__ = ["NoiseKernel", "grid_points", "noise_std"]
 
@@ -302,10 +303,15 @@ class NoiseKernel:
             density = scipy.fft.irfft(spectrum, n=length, axis=1, workers=1)
         else:
             spectrum = scipy.fft.rfftn(grids, axes=axes, workers=1)
-            for d in range(k):
-                shape = [1] * (k + 1)
-                shape[d + 1] = -1
-                spectrum *= (self.spectrum if d == k - 1 else self._full_spectrum).reshape(shape)
+            if k == 2 and spectrum.flags.c_contiguous:  # both products in one compiled pass
+                filter_spectra(spectrum, self._full_spectrum, self.spectrum)
+            else:
+                for d in range(k):
+                    shape = [1] * (k + 1)
+                    shape[d + 1] = -1
+                    spectrum *= (self.spectrum if d == k - 1 else self._full_spectrum).reshape(
+                        shape
+                    )
             density = scipy.fft.irfftn(spectrum, s=(length,) * k, axes=axes, workers=1)
         if length != q:
             density = density[(slice(None),) + (slice(0, q),) * k]
