@@ -18,11 +18,16 @@ Subcommands:
 * ``infoseek claims DIR``: paired statistical tests of the paper's Fig. 1 claims on stored
   trials (:mod:`infoseek.experiments.claims`).
 * ``infoseek verify DIR``: rerun stored trials from their seeds and report the records the
-  installed code does not reproduce (:mod:`infoseek.experiments.verify`).
+  installed code does not reproduce (:mod:`infoseek.experiments.verify`); ``--integrity``
+  checks every file of the store against its checksums instead
+  (:mod:`infoseek.experiments.integrity`).
+* ``infoseek migrate DIR``: bring a store to the current format: checksums recorded, trained
+  policies' groups relabelled portably (:mod:`infoseek.experiments.policy_labels`); no trial
+  is rerun and no number changes.
 * ``infoseek train``: train one parameter-shared RL policy (PPO, SAC or TD3) on an environment's
   entropy-reduction reward (:mod:`infoseek.experiments.train`, needs the ``rl`` extra).
 
-Errors in the arguments or the results directory print
+Errors in the arguments or the results directory (a damaged store included) print
 ``infoseek COMMAND: error: ...`` on stderr and make :func:`main` return 2; nothing already
 stored is changed. Every command runs with one BLAS/OpenMP/torch thread unless
 ``INFOSEEK_THREADS`` says otherwise (:mod:`infoseek.experiments.threads`).
@@ -34,6 +39,7 @@ import argparse
 import os
 import signal
 import sys
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -43,9 +49,11 @@ from infoseek.experiments.arguments import (
     check_results_directory,
     check_writable_directory,
     check_writable_file,
+    key_value,
 )
 from infoseek.experiments.claims import add_claims_arguments, run_claims
 from infoseek.experiments.demo import add_demo_arguments, run_demo
+from infoseek.experiments.store import StoreWarning
 from infoseek.experiments.threads import limited_threads
 from infoseek.experiments.timing import add_timing_arguments, run_timing
 from infoseek.experiments.train import add_train_arguments, run_train
@@ -362,6 +370,12 @@ def add_verify_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="PLANNER/AGENTS",
         help="rerun only this group, e.g. --group single/4 (repeatable; default: all)",
     )
+    parser.add_argument(
+        "--integrity",
+        action="store_true",
+        help="check every file of the store against its checksums instead of rerunning "
+        "trials (exit status 2 if any is damaged)",
+    )
     _add_execution_arguments(parser)
 
 
@@ -377,6 +391,13 @@ def run_verify_command(args: argparse.Namespace) -> int:
     from infoseek.experiments.verify import ATOL, RTOL, verify_store
 
     check_results_directory(args.directory)
+    if args.integrity:
+        if args.trials is not None or args.group is not None:
+            raise ValueError(
+                "--integrity checks the whole store; --trials/--group select "
+                "trials to rerun: give one or the other"
+            )
+        return _check_integrity(args.directory)
     backend, workers = _execution(args)
     groups = None if args.group is None else [_group(text) for text in args.group]
     result = verify_store(
@@ -407,6 +428,52 @@ def run_verify_command(args: argparse.Namespace) -> int:
         f"{len(result.differing)} not reproduced by the installed code"
     )
     return 1 if result.differing else 0
+
+
+def _check_integrity(directory: Path) -> int:
+    """``infoseek verify --integrity``: every file against its checksums; exit status 2 and
+    one line per damaged file if any."""
+    from infoseek.experiments.integrity import check_integrity
+
+    report = check_integrity(directory)
+    for note in report.notes:
+        print(f"note: {note}")
+    print(report.summary())
+    for problem in report.problems:
+        print(f"infoseek verify: error: {problem}", file=sys.stderr)
+    return 2 if report.problems else 0
+
+
+def add_migrate_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``infoseek migrate``."""
+    parser.add_argument("directory", type=Path, help="results directory of a bench/reproduce run")
+    parser.add_argument(
+        "--relocate",
+        type=key_value,
+        action="append",
+        default=[],
+        metavar="OLD=NEW",
+        help="the store was written in checkout OLD: find its models under NEW (repeatable)",
+    )
+
+
+def run_migrate_command(args: argparse.Namespace) -> int:
+    """``infoseek migrate DIR``: checksums recorded (format 3), absolute policy labels made
+    portable; no trial rerun, no number changed."""
+    from infoseek.experiments.policy_labels import migration
+    from infoseek.experiments.store import ResultsStore, read_manifest
+
+    check_results_directory(args.directory)
+    manifest = read_manifest(args.directory)
+    relocate = {str(old): str(new) for old, new in args.relocate}
+    with ResultsStore(args.directory, manifest["config"]) as store:
+        labels = sorted({key.rsplit("/agents=", 1)[0] for key in store.keys})
+        changes = migration(labels, args.directory, relocate)
+        rows = store.relabel(changes)
+    for old, new in changes.items():
+        print(f"{old} -> {new}")
+    print(f"{args.directory}: format 3 with checksums; {rows} trial(s) relabelled")
+    return 0
 
 
 def _numerics_line(numerics: dict[str, Any]) -> str:
@@ -477,6 +544,12 @@ def build_parser() -> argparse.ArgumentParser:
             add_train_arguments,
             run_train,
         ),
+        (
+            "migrate",
+            "bring a results store to the current format (checksums, portable policy labels)",
+            add_migrate_arguments,
+            run_migrate_command,
+        ),
     )
     for name, help_text, add_arguments, handler in subcommands:
         subparser = sub.add_parser(name, help=help_text)
@@ -506,7 +579,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as exit_:  # argparse: --help (0) or a usage error (2, message printed)
         return exit_.code if isinstance(exit_.code, int) else 2
     try:
-        with limited_threads():
+        with limited_threads(), warnings.catch_warnings():
+            warnings.simplefilter("always", StoreWarning)
+            warnings.showwarning = _warning_printer(args.command)
             return int(args.handler(args) or 0)
     except KeyboardInterrupt:
         print(f"infoseek {args.command}: interrupted", file=sys.stderr)
@@ -531,6 +606,19 @@ _EXTRAS = {
     "tensorboard": "rl",
     "ray": "distributed",
 }
+
+
+def _warning_printer(command: str) -> Any:
+    """A ``warnings.showwarning`` that prints a store warning as one line on stderr."""
+    default = warnings.showwarning
+
+    def show(message: Any, category: type[Warning], *rest: Any, **kwargs: Any) -> None:
+        if issubclass(category, StoreWarning):
+            print(f"infoseek {command}: warning: {message}", file=sys.stderr)
+        else:
+            default(message, category, *rest, **kwargs)
+
+    return show
 
 
 def _extra_hint(module: str) -> str:

@@ -227,13 +227,13 @@ def test_plot_without_trials_says_so(tmp_path: Path, capsys: pytest.CaptureFixtu
 
 def _synthetic_store(directory: Path, times: dict[tuple[str, int], list[int]], steps: int) -> None:
     """A results store whose trial ``k`` of each group first reaches mass 0.9 at ``times[k]``."""
-    from infoseek.experiments.store import FORMAT, FORMAT_VERSION, MANIFEST_NAME, TRIALS_NAME
+    from infoseek.experiments.store import FORMAT, MANIFEST_NAME, TRIALS_NAME
 
     directory.mkdir(parents=True)
-    manifest = {
+    manifest = {  # format 2 (no checksums), which stays readable: hand-written JSON lines
         "config": {"env": "bearings_v0", "env_kwargs": {}, "seed": 0, "steps": steps},
         "format": FORMAT,
-        "format_version": FORMAT_VERSION,
+        "format_version": 2,
     }
     (directory / MANIFEST_NAME).write_text(json.dumps(manifest))
     lines = []
@@ -447,6 +447,17 @@ def test_mass_bands_are_the_mean_and_interquartile_range_per_step() -> None:
         assert expected in line
 
 
+def _rewrite_as_journal(out: Path, records: list[dict]) -> None:
+    """The store ``out`` holding exactly ``records``, in its journal (double precision), as
+    infoseek writes it (checksummed lines, the manifest listing no part)."""
+    from infoseek.experiments import store
+
+    manifest = store.read_manifest(out)
+    shutil.rmtree(out / PARTS_NAME)
+    store._write_manifest(out, {**manifest, "parts": {}})
+    (out / TRIALS_NAME).write_bytes(b"".join(store.encode_journal_line(r) for r in records))
+
+
 def test_verify_reruns_stored_trials_and_names_the_ones_not_reproduced(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -465,8 +476,7 @@ def test_verify_reruns_stored_trials_and_names_the_ones_not_reproduced(
     records[1]["mass_agent0"][-1] = records[1]["mass_agent0"][-1] / 2 + 0.01
     records[2]["plan_time"] = [t + 1.0 for t in records[2]["plan_time"]]
     records[0]["error_agent0"][1] += 1e-7
-    shutil.rmtree(out / PARTS_NAME)
-    (out / TRIALS_NAME).write_text("".join(json.dumps(r) + "\n" for r in records))
+    _rewrite_as_journal(out, records)
     before = _snapshot(out)
     assert main(["verify", str(out), "--workers", "1"]) == 1
     report = capsys.readouterr().out

@@ -26,6 +26,7 @@ COMMANDS = {
     "claims": ["claims", "x"],
     "verify": ["verify", "x"],
     "train": ["train", "--timesteps", "1", "--out", "x"],
+    "migrate": ["migrate", "x"],
 }
 
 
