@@ -197,19 +197,35 @@ def windowed_pair_entropies(
                 side_a.rows[begin:end],
                 side_b.rows,
             )
-        # Linear convolution along both axes: (conv_a H conv_b^T), axes (c, m, out_b, out_a),
-        # in float32 (probabilities to ~1e-7: far below any planning or test tolerance).
-        smoothed = np.matmul(histogram, conv_b.T)  # (size, n_b, width_a, out_b)
-        density = np.matmul(smoothed.transpose(0, 1, 3, 2), conv_a.T)  # (.., out_b, out_a)
-        if side_a.mask is not None and side_b.mask is not None:
-            density *= side_a.mask[begin:end, None, None, :]
-            density *= side_b.mask[None, :, :, None]
-        # clamp at 1e-38, normalise, -sum p log p: two compiled passes around NumPy's float32
-        # log (grid_entropy)
-        rows = np.ascontiguousarray(density.reshape(size * n_b, -1))
-        normalise_rows(rows)
-        joint[begin:end] = entropy_sums(rows, np.log(rows)).reshape(size, n_b)
+        mask_a = None if side_a.mask is None else side_a.mask[begin:end]
+        joint[begin:end] = _smoothed_entropies(histogram, conv_a, conv_b, mask_a, side_b.mask)
     return joint
+
+
+def _smoothed_entropies(
+    histogram: NDArray[np.float32],
+    conv_a: NDArray[np.float32],
+    conv_b: NDArray[np.float32],
+    mask_a: FloatArray | None,
+    mask_b: FloatArray | None,
+) -> FloatArray:
+    """``(C, M)`` entropies of ``(C, M, W_a, W_b)`` window histograms convolved with the noise.
+
+    The linear convolution along both axes, ``conv_a H conv_b^T`` (axes ``(c, m, out_b,
+    out_a)``), is two float32 matrix products (probabilities to ~1e-7: far below any planning
+    or test tolerance); non-periodic grids zero the output nodes outside the domain; the grids
+    are clamped at ``1e-38``, normalised and turned into ``-sum p log p`` by two compiled
+    passes around NumPy's float32 log (:mod:`~infoseek.planners.information.grid_entropy`).
+    """
+    size, n_b = histogram.shape[:2]
+    smoothed = np.matmul(histogram, conv_b.T)  # (size, n_b, width_a, out_b)
+    density = np.matmul(smoothed.transpose(0, 1, 3, 2), conv_a.T)  # (.., out_b, out_a)
+    if mask_a is not None and mask_b is not None:
+        density *= mask_a[:, None, None, :]
+        density *= mask_b[None, :, :, None]
+    rows = np.ascontiguousarray(density.reshape(size * n_b, -1))
+    normalise_rows(rows)
+    return entropy_sums(rows, np.log(rows)).reshape(size, n_b)
 
 
 def full_grid_pair_entropies(
