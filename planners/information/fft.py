@@ -8,15 +8,20 @@ times the noise entropy. So no likelihood is evaluated: each pose costs one ``pr
 stencil (:mod:`~infoseek.planners.information.noise_kernel`, no nearest-node rounding), and the
 histogram is convolved by FFT, ``O(N 3^k + Q^k log Q)`` per pose set instead of ``O(N Q^k)``.
 
-* one observation: three moment ``bincount`` s per batch of poses and one batched ``rfft``;
+* one observation: one compiled pass of three moment histograms per pose
+  (:mod:`~infoseek.planners.information.moment_histograms`) and one batched ``rfft``;
 * pairs: windowed grids around each pose's predictions once the belief has concentrated
-  (:mod:`~infoseek.planners.information.windows`), the full ``Q x Q`` grid otherwise;
+  (:mod:`~infoseek.planners.information.windows`), the full ``Q x Q`` grid otherwise (compiled
+  histograms, :mod:`~infoseek.planners.information.pair_histograms`);
 * three observations: the full ``Q^3`` grid.
 
 The same grid serves every ``k`` (bearing sensor, ``sigma = 0.1``: 96 nodes), so single and pair
 terms of a utility share one resolution. Predictions are computed once per pose and belief in
-float32 (about ``1e-7`` of a node) and cached in the :class:`~infoseek.planners.information.
-base.BeliefMI`. Predictions outside a non-periodic domain are clamped to its edge.
+float32 (about ``1e-7`` of a node) and kept, with the window stencils, by the belief's
+:class:`~infoseek.planners.information.stencil_cache.StencilCache`. Predictions outside a
+non-periodic domain are clamped to its edge. The compiled kernels accumulate in the order of the
+NumPy expressions they replaced, so every value is the same bit for bit in the pinned numerical
+environment (:mod:`infoseek.envs.compiled`).
 """
 
 from __future__ import annotations

@@ -27,7 +27,10 @@ rows summing to one). These channels feed the discrete-channel formulas
 (:mod:`~infoseek.planners.information.channels`): ``H(z)`` is the periodic trapezoid rule on
 the exact nodal density of the mixture (spectrally accurate), ``H(z | theta) = sum_n w_n
 h(s_n)`` from the table. One and two observations share the grid (one resolution per utility);
-single MIs skip the channels and sum the spectra, ``sum_n w_n X_n``, directly.
+single MIs skip the channels and sum the spectra, ``sum_n w_n X_n``, directly. The spectra are
+synthesised by one compiled pass per pose (:mod:`~infoseek.planners.information.
+fourier_spectra`, NumPy's bits) and kept with the channels by the belief's
+:class:`~infoseek.planners.information.fourier_cache.FourierCache`.
 
 **Cost** per pose ``O(N K)`` for the spectra plus ``O(N Q log Q)`` for the channels; per pair one
 ``(Q x N) (N x Q)`` matrix product. With ``beacon_v0``'s floor (``rho <= 5``): ``K = 17``,

@@ -13,9 +13,13 @@ preserve the particle's mass, mean and second moment, so the assignment adds no 
 leading order; the residual error is third order in ``spacing / noise_std`` and odd in
 ``delta`` (it averages out over particles). There is no rounding of a prediction to its nearest
 node. For one observation the histogram is formed from three moment histograms
-``h_m[j] = sum_{n -> j} w_n delta_n^m`` (``m = 0, 1, 2``), each one ``numpy.bincount`` over the
-particles: node ``q`` receives ``h_0 - h_2`` from its own particles, ``(h_2 + h_1) / 2`` from
-those of node ``q - 1`` and ``(h_2 - h_1) / 2`` from those of node ``q + 1``.
+``h_m[j] = sum_{n -> j} w_n delta_n^m`` (``m = 0, 1, 2``), accumulated in one compiled pass over
+the particles (:mod:`~infoseek.planners.information.moment_histograms`): node ``q`` receives
+``h_0 - h_2`` from its own particles, ``(h_2 + h_1) / 2`` from those of node ``q - 1`` and
+``(h_2 - h_1) / 2`` from those of node ``q + 1``. Pairs of observations are accumulated the same
+way on the two-dimensional grid (:mod:`~infoseek.planners.information.pair_histograms`), and the
+convolved grids are normalised and turned into entropies by compiled passes around NumPy's
+``log`` (:mod:`~infoseek.planners.information.grid_entropy`).
 
 **Grid.** ``Q = width * ppstd / noise_std`` nodes, rounded up to an FFT-friendly size, with
 ``ppstd = 1.5`` points per noise standard deviation (the noise scale is measured once from
