@@ -79,13 +79,18 @@ _LOG_MIN_LAMBDA = -60.0
 
 
 def _logsumexp(values: FloatArray) -> float:
-    return float(logsumexp_rows(values[None])[0])
+    """``log sum exp(values)`` of one ``(N,)`` row: :func:`~infoseek.envs.log_weights.
+    logsumexp_rows` of that row (the same operations, without the batch bookkeeping, for the
+    scalar loops of progressive correction)."""
+    peak = float(values.max())
+    if not math.isfinite(peak):
+        return peak
+    return peak + math.log(float(np.exp(values - peak).sum()))
 
 
 def _log_ess(log_weights: FloatArray) -> float:
     """``log ESS`` of unnormalised ``(N,)`` log-weights."""
-    rows = log_weights[None]
-    return float(2.0 * logsumexp_rows(rows)[0] - logsumexp_rows(2.0 * rows)[0])
+    return 2.0 * _logsumexp(log_weights) - _logsumexp(2.0 * log_weights)
 
 
 @dataclass(frozen=True)
