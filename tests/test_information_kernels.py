@@ -437,3 +437,14 @@ def test_filter_spectra_equals_numpy_in_place_products_bit_for_bit():
     assert _same(spectra, expected)
     with pytest.raises(ValueError, match="half must have shape"):
         filter_spectra(spectra, full, half[:5])
+
+
+def test_smoothed_entropy_keeps_its_float32_option_on_pair_grids():
+    kernel = _kernel(SENSORS[0])
+    rng = np.random.default_rng(15)
+    grids = rng.random((3, kernel.n_points, kernel.n_points))
+    grids /= grids.sum(axis=(1, 2), keepdims=True)
+    exact = kernel.smoothed_entropy(grids)
+    single = kernel.smoothed_entropy(grids, dtype=np.float32)
+    assert single.dtype == np.float64
+    np.testing.assert_allclose(single, exact, rtol=1e-5)

@@ -307,7 +307,8 @@ class NoiseKernel:
             density = scipy.fft.irfft(spectrum, n=length, axis=1, workers=1)
         else:
             spectrum = scipy.fft.rfftn(grids, axes=axes, workers=1)
-            if k == 2 and spectrum.flags.c_contiguous:  # both products in one compiled pass
+            if k == 2 and spectrum.dtype == np.complex128 and spectrum.flags.c_contiguous:
+                # both products in one compiled pass
                 filter_spectra(spectrum, self._full_spectrum, self.spectrum)
             else:
                 for d in range(k):
