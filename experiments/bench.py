@@ -49,7 +49,14 @@ Backends. ``serial`` runs trials in this process; ``process`` in a
 :class:`concurrent.futures.ProcessPoolExecutor` (``forkserver`` context where available, else
 ``spawn``); ``ray`` as ``ray.remote`` tasks (an existing cluster via ``address``, else a local
 Ray started for the run and shut down afterwards). In every case the parent process appends
-each record to the store as soon as its trial finishes.
+each record to the store as soon as its trial finishes. Trials are generated lazily
+(:meth:`BenchPlan.iter_specs`) and handed to the workers as they free up, at most
+:data:`IN_FLIGHT_PER_WORKER` per worker ahead, so memory does not grow with ``--trials``.
+
+Trained policies. ``--policy PATH`` groups are labelled portably
+(:mod:`infoseek.experiments.policy_labels`: ``policy:shipped/<name>`` for a model installed with
+infoseek, else the model's path relative to the results directory), so a store resumes and
+verifies from any checkout; the labels enter the keys and the policy seeds like any planner's.
 """
 
 from __future__ import annotations
@@ -57,10 +64,12 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import importlib
+import itertools
 import json
 import math
 import multiprocessing
 import os
+import re
 import sys
 import time
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
@@ -73,6 +82,13 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from infoseek.experiments.policies import PLANNER_NAMES, make_policy
+from infoseek.experiments.policy_labels import (
+    POLICY_PREFIX,
+    display_name,
+    is_policy,
+    policy_file,
+    portable_label,
+)
 from infoseek.experiments.store import ResultsStore, read_records, trial_key
 
 #: Fields of a trial record that measure time and so differ between otherwise identical runs.
@@ -80,7 +96,9 @@ TIMING_FIELDS: frozenset[str] = frozenset({"plan_time", "wall_time"})
 #: Posterior mass within the localisation radius that counts as "localised".
 LOCALISED_MASS = 0.9
 BACKENDS: tuple[str, ...] = ("serial", "process", "ray")
-POLICY_PREFIX = "policy:"
+#: Trials in flight per worker on the process and ray backends (the rest are generated as
+#: workers free up, so memory does not grow with the number of trials requested).
+IN_FLIGHT_PER_WORKER = 2
 
 
 def _infoseek_version() -> str:
@@ -228,8 +246,9 @@ def trained_policy_loader() -> Callable[..., Any]:
     return loader
 
 
-def check_policy_path(path: str) -> str:
-    """Validate a ``--policy`` path; returns its planner label ``"policy:<absolute path>"``."""
+def check_policy_path(path: str, store: str | os.PathLike[str] = ".") -> str:
+    """Validate a ``--policy`` path; returns its portable planner label for the results
+    directory ``store`` (:func:`infoseek.experiments.policy_labels.portable_label`)."""
     resolved = Path(path).expanduser().resolve()
     if not resolved.exists():
         raise ValueError(f"--policy {path!r}: no such file or directory")
@@ -242,13 +261,29 @@ def check_policy_path(path: str) -> str:
                 "pip install 'infoseek[rl]'"
             ) from None
     trained_policy_loader()
-    return POLICY_PREFIX + str(resolved)
+    return portable_label(resolved, store)
 
 
-def build_policy(planner: str, env: Any, seed: int, options: Mapping[str, Any]) -> Any:
-    """The policy called ``planner`` (name, ``"module:callable"`` or ``"policy:<path>"``)."""
-    if planner.startswith(POLICY_PREFIX):
-        return trained_policy_loader()(planner[len(POLICY_PREFIX) :], env, seed=seed)
+def build_policy(
+    planner: str,
+    env: Any,
+    seed: int,
+    options: Mapping[str, Any],
+    model_file: str | None = None,
+) -> Any:
+    """The policy called ``planner`` (name, ``"module:callable"`` or a policy label).
+
+    Args:
+        planner: The planner label.
+        env: The environment it acts in.
+        seed: Its seed.
+        options: Planner options (scripted planners and factories).
+        model_file: The model file of a policy label (resolved against its store); ``None``:
+            the label's own path (absolute labels).
+    """
+    if is_policy(planner):
+        path = model_file if model_file is not None else str(policy_file(planner, "."))
+        return trained_policy_loader()(path, env, seed=seed)
     if ":" in planner:
         return _import_object(planner, "--planner")(env, seed=seed, **options)
     return make_policy(planner, env, seed=seed, **options)
@@ -269,6 +304,8 @@ class TrialSpec:
         env_seed: Seed of ``env.reset``.
         policy_seed: Seed of the policy.
         planner_options: Keyword arguments of the planner's ``from_env``.
+        model_file: Absolute path of the model of a policy label (``None``: not a policy, or
+            an absolute label).
     """
 
     env: str
@@ -280,6 +317,7 @@ class TrialSpec:
     env_seed: int
     policy_seed: int
     planner_options: Mapping[str, Any] = field(default_factory=dict)
+    model_file: str | None = None
 
     @property
     def key(self) -> str:
@@ -381,7 +419,9 @@ def _run_trial(spec: TrialSpec) -> dict[str, Any]:
     env = make_env(spec.env, n_agents=spec.n_agents, max_cycles=spec.steps, **spec.env_kwargs)
     try:
         observations, infos = env.reset(seed=spec.env_seed)
-        policy = build_policy(spec.planner, env, spec.policy_seed, spec.planner_options)
+        policy = build_policy(
+            spec.planner, env, spec.policy_seed, spec.planner_options, spec.model_file
+        )
         unwrapped = env.unwrapped
         radius = float(unwrapped.localization_radius)
         recorder = _Recorder(env.possible_agents, radius, unwrapped.belief)
@@ -468,14 +508,28 @@ class BenchPlan:
             "version": _infoseek_version(),
         }
 
-    def validate(self) -> None:
+    def model_files(self, store: str | os.PathLike[str] | None) -> dict[str, str]:
+        """The model file of every policy label of the plan, resolved against the results
+        directory ``store`` (``None``: the current directory)."""
+        root = store if store is not None else "."
+        return {
+            planner: str(policy_file(planner, root))
+            for planner, _ in self.groups
+            if is_policy(planner)
+        }
+
+    def validate(self, store: str | os.PathLike[str] | None = None) -> None:
         """Build every group's environment and policy once, without running anything.
+
+        Args:
+            store: The results directory (policy labels are relative to it).
 
         Raises:
             ValueError / TypeError: An environment keyword, planner or planner/fleet-size
                 combination that a trial would reject (so nothing is written for a run that
                 would fail).
         """
+        files = self.model_files(store)
         for n_agents in sorted({n for _, n in self.groups}):
             env = make_env(self.env, n_agents=n_agents, max_cycles=self.steps, **self.env_kwargs)
             try:
@@ -483,32 +537,47 @@ class BenchPlan:
                     if n != n_agents:
                         continue
                     try:
-                        build_policy(planner, env, 0, self.planner_options)
+                        build_policy(planner, env, 0, self.planner_options, files.get(planner))
                     except (ValueError, TypeError) as error:
-                        raise ValueError(f"{planner} with {n_agents} agent(s): {error}") from None
+                        label = display_name(planner)
+                        raise ValueError(f"{label} with {n_agents} agent(s): {error}") from None
             finally:
                 env.close()
 
-    def specs(self) -> list[TrialSpec]:
-        """Every trial of the plan, group by group, in trial order."""
-        specs = []
+    def iter_specs(self, store: str | os.PathLike[str] | None = None) -> Iterator[TrialSpec]:
+        """Every trial of the plan, group by group, in trial order, generated one at a time
+        (a plan of 10^9 trials costs no memory).
+
+        Args:
+            store: The results directory (policy labels are relative to it).
+        """
+        files = self.model_files(store)
+        env_kwargs = dict(self.env_kwargs)
+        options = dict(self.planner_options)
         for planner, n_agents in self.groups:
             for trial in range(self.trials):
                 env_seed, policy_seed = trial_seeds(self.seed, self.env, planner, n_agents, trial)
-                specs.append(
-                    TrialSpec(
-                        env=self.env,
-                        env_kwargs=dict(self.env_kwargs),
-                        steps=self.steps,
-                        planner=planner,
-                        n_agents=n_agents,
-                        trial=trial,
-                        env_seed=env_seed,
-                        policy_seed=policy_seed,
-                        planner_options=dict(self.planner_options),
-                    )
+                yield TrialSpec(
+                    env=self.env,
+                    env_kwargs=env_kwargs,
+                    steps=self.steps,
+                    planner=planner,
+                    n_agents=n_agents,
+                    trial=trial,
+                    env_seed=env_seed,
+                    policy_seed=policy_seed,
+                    planner_options=options,
+                    model_file=files.get(planner),
                 )
-        return specs
+
+    def specs(self, store: str | os.PathLike[str] | None = None) -> list[TrialSpec]:
+        """Every trial of the plan as a list (:meth:`iter_specs`; for small plans)."""
+        return list(self.iter_specs(store))
+
+    def wants(self, record: Mapping[str, Any]) -> bool:
+        """Whether the plan asks for the trial of the stored ``record``."""
+        group = (str(record["planner"]), int(record["n_agents"]))
+        return group in self.groups and 0 <= int(record["trial"]) < self.trials
 
 
 class TrialFailedError(RuntimeError):
@@ -519,7 +588,7 @@ def _describe(spec: TrialSpec) -> str:
     return f"trial {spec.key} (env_seed={spec.env_seed}, policy_seed={spec.policy_seed})"
 
 
-def _serial(specs: Sequence[TrialSpec]) -> Iterator[tuple[TrialSpec, dict[str, Any]]]:
+def _serial(specs: Iterable[TrialSpec]) -> Iterator[tuple[TrialSpec, dict[str, Any]]]:
     for spec in specs:
         try:
             record = run_trial(spec)
@@ -573,12 +642,13 @@ def _die_with_parent(parent: int) -> None:
 
 
 def _processes(
-    specs: Sequence[TrialSpec], workers: int
+    specs: Iterable[TrialSpec], workers: int
 ) -> Iterator[tuple[TrialSpec, dict[str, Any]]]:
-    """Trials on a pool of ``workers`` processes. If the caller stops early (Ctrl-C, a failed
-    trial, the generator closed), the pool's workers are terminated: ``shutdown`` only cancels
-    the trials not yet started, and the running ones would keep this process waiting at exit
-    until they finish."""
+    """Trials on a pool of ``workers`` processes, at most :data:`IN_FLIGHT_PER_WORKER` per
+    worker submitted at a time (the next spec is drawn when a trial finishes). If the caller
+    stops early (Ctrl-C, a failed trial, the generator closed), the pool's workers are
+    terminated: ``shutdown`` only cancels the trials not yet started, and the running ones
+    would keep this process waiting at exit until they finish."""
     others = set(multiprocessing.active_children())
     finished = False
     with single_threaded_workers():
@@ -589,10 +659,17 @@ def _processes(
             initargs=(os.getpid(),),
         )
         executor.submit(int).result()  # start the workers while the variables are set
+    queue = iter(specs)
+    pending: dict[Future[dict[str, Any]], TrialSpec] = {}
+
+    def submit_next() -> None:
+        spec = next(queue, None)
+        if spec is not None:
+            pending[executor.submit(run_trial, spec)] = spec
+
     try:
-        pending: dict[Future[dict[str, Any]], TrialSpec] = {
-            executor.submit(run_trial, spec): spec for spec in specs
-        }
+        for _ in range(IN_FLIGHT_PER_WORKER * workers):
+            submit_next()
         while pending:
             done, _ = wait(pending, return_when=FIRST_COMPLETED)
             for future in done:
@@ -601,6 +678,7 @@ def _processes(
                     record = future.result()
                 except Exception as error:
                     raise TrialFailedError(f"{_describe(spec)} failed: {error!r}") from error
+                submit_next()
                 yield spec, record
         finished = True
     finally:
@@ -622,7 +700,7 @@ def _terminate(processes: Iterable[multiprocessing.process.BaseProcess]) -> None
 
 
 def _ray(
-    specs: Sequence[TrialSpec], workers: int, address: str | None
+    specs: Iterable[TrialSpec], workers: int, address: str | None
 ) -> Iterator[tuple[TrialSpec, dict[str, Any]]]:
     try:
         import ray
@@ -647,9 +725,11 @@ def _ray(
             )
         started_here = True
     pending: dict[Any, TrialSpec] = {}
+    queue = iter(specs)
     try:
         remote_trial = ray.remote(num_cpus=1, max_retries=0)(run_trial)
-        pending = {remote_trial.remote(spec): spec for spec in specs}
+        for spec in itertools.islice(queue, IN_FLIGHT_PER_WORKER * workers):
+            pending[remote_trial.remote(spec)] = spec
         while pending:
             done, _ = ray.wait(list(pending), num_returns=1)
             for ref in done:
@@ -658,6 +738,9 @@ def _ray(
                     record = ray.get(ref)
                 except Exception as error:
                     raise TrialFailedError(f"{_describe(spec)} failed: {error!r}") from error
+                following = next(queue, None)
+                if following is not None:
+                    pending[remote_trial.remote(following)] = following
                 yield spec, record
     finally:
         for ref in pending:  # interrupted or failed: drop the trials not yet finished
@@ -667,12 +750,15 @@ def _ray(
 
 
 def execute(
-    specs: Sequence[TrialSpec],
+    specs: Iterable[TrialSpec],
     backend: str = "serial",
     workers: int = 1,
     address: str | None = None,
 ) -> Iterator[tuple[TrialSpec, dict[str, Any]]]:
     """Run ``specs`` on ``backend``; yields ``(spec, record)`` as trials finish.
+
+    ``specs`` may be a generator: it is drawn from as workers free up (at most
+    :data:`IN_FLIGHT_PER_WORKER` trials per worker are submitted ahead), never all at once.
 
     Raises:
         ValueError: Unknown backend, bad worker count, or ray missing.
@@ -682,13 +768,16 @@ def execute(
         raise ValueError(f"unknown backend {backend!r}; expected one of {list(BACKENDS)}")
     if not isinstance(workers, int) or workers < 1:
         raise ValueError(f"--workers must be a positive integer, got {workers!r}")
-    if not specs:
+    queue = iter(specs)
+    first = next(queue, None)
+    if first is None:  # nothing to run: start no pool
         return iter(())
+    queue = itertools.chain([first], queue)
     if backend == "serial":
-        return _serial(specs)
+        return _serial(queue)
     if backend == "process":
-        return _processes(specs, workers)
-    return _ray(specs, workers, address)
+        return _processes(queue, workers)
+    return _ray(queue, workers, address)
 
 
 @dataclass
@@ -756,12 +845,12 @@ def run_bench(
         StoreConfigError: ``out`` holds another configuration (nothing is written).
         TrialFailedError: A trial raised; every trial finished before it is stored.
     """
-    specs = plan.specs()
-    plan.validate()  # before the store is created or opened
+    plan.validate(out)  # before the store is created or opened
+    total = len(plan.groups) * plan.trials
     with ResultsStore(out, plan.config()) as store:
-        missing = [spec for spec in specs if spec.key not in store]
-        skipped = len(specs) - len(missing)
-        bar = trial_progress_bar(len(specs), f"bench {plan.env}", progress, initial=skipped)
+        skipped = sum(1 for key in store.keys if _planned(plan, key))
+        missing = (spec for spec in plan.iter_specs(out) if spec.key not in store)
+        bar = trial_progress_bar(total, f"bench {plan.env}", progress, initial=skipped)
         ran = 0
         try:
             for _, record in execute(missing, backend=backend, workers=workers, address=address):
@@ -770,9 +859,19 @@ def run_bench(
                 bar.update(1)
         finally:
             bar.close()
-    wanted = {spec.key for spec in specs}  # read back in stored form (after compaction)
-    records = [record for record in read_records(out) if record["key"] in wanted]
+    records = [record for record in read_records(out) if plan.wants(record)]  # stored form
     return BenchResult(records=records, ran=ran, skipped=skipped)
+
+
+_KEY = re.compile(r"^(?P<planner>.+)/agents=(?P<n>\d+)/trial=(?P<trial>\d+)$")
+
+
+def _planned(plan: BenchPlan, key: str) -> bool:
+    """Whether the stored trial ``key`` is one the plan asks for."""
+    match = _KEY.match(key)
+    return match is not None and plan.wants(
+        {"planner": match["planner"], "n_agents": match["n"], "trial": match["trial"]}
+    )
 
 
 def time_to_localise(mass: Sequence[float | None], threshold: float = LOCALISED_MASS) -> int | None:
@@ -827,10 +926,13 @@ def summarise(
 
 
 def format_summary(rows: Sequence[GroupSummary], steps: int) -> str:
-    """The summary table as text."""
+    """The summary table as text (planners by their whole readable name,
+    :func:`~infoseek.experiments.policy_labels.display_name`)."""
+    labels = [display_name(row.planner) for row in rows]
+    width = max([16, *(len(label) for label in labels)])
     header = (
-        f"{'planner':<16} {'agents':>6} {'trials':>6} {'ttl mean':>8} {'q25':>6} {'median':>6} "
-        f"{'q75':>6} {'never':>5} {'final mass':>10} {'plan ms/step':>12}"
+        f"{'planner':<{width}} {'agents':>6} {'trials':>6} {'ttl mean':>8} {'q25':>6} "
+        f"{'median':>6} {'q75':>6} {'never':>5} {'final mass':>10} {'plan ms/step':>12}"
     )
     lines = [
         f"time to localise: first step with posterior mass >= {LOCALISED_MASS:g} within the "
@@ -838,11 +940,11 @@ def format_summary(rows: Sequence[GroupSummary], steps: int) -> str:
         header,
         "-" * len(header),
     ]
-    for row in rows:
-        label = row.planner if len(row.planner) <= 16 else "..." + row.planner[-13:]
+    for label, row in zip(labels, rows, strict=True):
         q25, q50, q75 = row.ttl_quartiles
         lines.append(
-            f"{label:<16} {row.n_agents:>6d} {row.trials:>6d} {row.ttl_mean:>8.2f} {q25:>6.1f} "
-            f"{q50:>6.1f} {q75:>6.1f} {row.never:>5d} {row.final_mass:>10.3f} {row.plan_ms:>12.2f}"
+            f"{label:<{width}} {row.n_agents:>6d} {row.trials:>6d} {row.ttl_mean:>8.2f} "
+            f"{q25:>6.1f} {q50:>6.1f} {q75:>6.1f} {row.never:>5d} {row.final_mass:>10.3f} "
+            f"{row.plan_ms:>12.2f}"
         )
     return "\n".join(lines)

@@ -170,7 +170,7 @@ def run_bench_command(args: argparse.Namespace) -> int:
     planners = list(dict.fromkeys(args.planner or ([] if args.policy else ["pairwise"])))
     for planner in planners:
         check_planner(planner)
-    planners += [check_policy_path(path) for path in args.policy or []]
+    planners += [check_policy_path(path, out) for path in args.policy or []]
     agents = sorted({n for group in (args.agents or [[4]]) for n in group})
     if any(n < 1 for n in agents):
         raise ValueError(f"--agents must be >= 1, got {agents}")

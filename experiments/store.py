@@ -346,8 +346,12 @@ def decode_part(path: Path, data: bytes, listed: Mapping[str, Any] | None) -> An
                 f"{path}: damaged part, its SHA-256 differs from the manifest's "
                 "(modified or damaged)"
             )
+    # Arrow-owned memory: a buffer over the Python bytes could be released by one of
+    # pyarrow's threads during interpreter shutdown, which needs the GIL and aborts.
+    buffer = pa.allocate_buffer(len(data))
+    pa.FixedSizeBufferWriter(buffer).write(data)
     try:
-        table = pq.read_table(pa.BufferReader(data), page_checksum_verification=True)
+        table = pq.read_table(pa.BufferReader(buffer), page_checksum_verification=True)
     except Exception as error:  # pyarrow raises several types for damaged files
         raise StoreCorruptError(f"{path}: damaged part, unreadable ({error})") from None
     if listed is not None and table.num_rows != listed.get("rows"):

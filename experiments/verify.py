@@ -17,6 +17,10 @@ leaves the tolerance. A diverged record was written by other code (an older vers
 planner, say) and should not be mixed with records of the installed code; the command prints
 those keys and exits with status 1 if there are any.
 
+A trained policy's label names its model relative to the store (or as a shipped model), so a
+store verifies from any checkout; stores written before those labels name an absolute path
+(``infoseek migrate DIR`` rewrites them).
+
 Trials run with planner options passed through the Python API
 (:attr:`~infoseek.experiments.bench.BenchPlan.planner_options`) are not described by the store;
 ``infoseek verify`` reruns every trial with the planners' defaults, as ``infoseek bench`` does.
@@ -31,6 +35,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from infoseek.experiments.bench import TrialSpec, execute, trial_progress_bar
+from infoseek.experiments.policy_labels import display_name, is_policy, policy_file
 from infoseek.experiments.store import as_stored, encode_record, read_manifest, read_records
 
 #: Record fields that measure the machine, not the trial (left out of the comparison).
@@ -40,13 +45,20 @@ RTOL = 1e-5
 ATOL = 1e-6
 
 
-def stored_trial_spec(config: Mapping[str, Any], record: Mapping[str, Any]) -> TrialSpec:
+def stored_trial_spec(
+    config: Mapping[str, Any],
+    record: Mapping[str, Any],
+    store: str | os.PathLike[str] = ".",
+) -> TrialSpec:
     """The :class:`~infoseek.experiments.bench.TrialSpec` that reproduces a stored record.
 
     Args:
         config: The store manifest's ``config``.
         record: One stored trial record.
+        store: The store's directory (trained-policy labels are relative to it).
     """
+    planner = str(record["planner"])
+    model_file = str(policy_file(planner, store)) if is_policy(planner) else None
     return TrialSpec(
         env=str(config["env"]),
         env_kwargs=dict(config["env_kwargs"]),
@@ -56,6 +68,20 @@ def stored_trial_spec(config: Mapping[str, Any], record: Mapping[str, Any]) -> T
         trial=int(record["trial"]),
         env_seed=int(record["env_seed"]),
         policy_seed=int(record["policy_seed"]),
+        model_file=model_file,
+    )
+
+
+def _check_model_file(spec: TrialSpec) -> None:
+    """Raise ``ValueError`` (naming the group and the path) if a policy's model is missing."""
+    if spec.model_file is None or os.path.isfile(spec.model_file):
+        return
+    hint = ""
+    if os.path.isabs(spec.planner.removeprefix("policy:")):  # a store from before portable labels
+        hint = "; `infoseek migrate DIR --relocate OLD=NEW` makes its labels portable"
+    raise ValueError(
+        f"group {display_name(spec.planner)}/{spec.n_agents} ({spec.planner}): no model file "
+        f"at {spec.model_file}{hint}"
     )
 
 
@@ -179,7 +205,9 @@ def verify_store(
         if (str(r["planner"]), int(r["n_agents"])) in wanted
         and (trials is None or int(r["trial"]) < trials)
     }
-    specs = [stored_trial_spec(config, record) for record in selected.values()]
+    specs = [stored_trial_spec(config, record, directory) for record in selected.values()]
+    for spec in specs:
+        _check_model_file(spec)
     differing: dict[str, Comparison] = {}
     noisy, largest = 0, 0.0
     bar = trial_progress_bar(len(specs), "verify", progress)

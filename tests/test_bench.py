@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import multiprocessing
 import os
@@ -10,6 +11,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -349,8 +351,8 @@ def test_trained_policy_hook_resolves_through_baselines(
 
     # setitem on the module dict: getattr would import the real (torch-based) loader first
     monkeypatch.setitem(vars(infoseek.baselines), "load_policy", fake_load_policy)
-    label = bench.check_policy_path(str(model))
-    assert label == f"policy:{model.resolve()}"
+    label = bench.check_policy_path(str(model), tmp_path / "run")
+    assert label == "policy:../model.zip"  # relative to the store: portable
     result = run_bench(tiny_plan(trials=2, groups=[(label, 2)]), tmp_path / "run", progress=False)
     assert [r["key"] for r in result.records] == [f"{label}/agents=2/trial={k}" for k in (0, 1)]
     # once while the plan is validated (before anything is written), then once per trial
@@ -389,6 +391,84 @@ def test_process_backend_stopped_early_leaves_no_workers_running() -> None:
     assert len(set(multiprocessing.active_children()) - before) == 2
     stream.close()
     assert set(multiprocessing.active_children()) - before == set()
+
+
+@pytest.mark.parametrize("backend", ["serial", "process"])
+def test_trials_are_generated_as_workers_free_up(backend: str) -> None:
+    """A plan of 10^9 trials: the backends draw specs as trials finish, never all at once."""
+    plan = BenchPlan(
+        env="bearings_v0",
+        env_kwargs={"n_particles": 100},
+        steps=1,
+        seed=7,
+        groups=[("random", 1)],
+        trials=10**9,
+    )
+    drawn = 0
+
+    def counted() -> Iterator[TrialSpec]:
+        nonlocal drawn
+        for spec in plan.iter_specs():
+            drawn += 1
+            yield spec
+
+    stream = bench.execute(counted(), backend=backend, workers=2)
+    keys = [spec.key for spec, _ in itertools.islice(stream, 3)]
+    stream.close()
+    assert keys == [f"random/agents=1/trial={k}" for k in range(3)] or backend == "process"
+    assert drawn <= 3 + bench.IN_FLIGHT_PER_WORKER * 2
+
+
+def _peak_rss_of_a_stopped_bench(out: Path, trials: int, workers: int) -> tuple[int, int]:
+    """Peak resident memory (KiB) and exit status of ``infoseek bench --trials TRIALS``
+    stopped with SIGINT once 4 trials are journaled (limited to 4 GiB of address space, so
+    a bench that lists every trial fails fast instead of filling the machine)."""
+    environ = {**os.environ, "PYTHONPATH": str(TESTS_DIR), "INFOSEEK_TEST_SLEEP": "0.1"}
+    args = ["--planner", "test_bench:sleepy_random_policy", "--agents", "1", "--steps", "2"]
+    args += ["--particles", "100", "--workers", str(workers), "--no-progress"]
+    limit = "import resource; resource.setrlimit(resource.RLIMIT_AS, (2**32, 2**32)); "
+    script = limit + "import sys; from infoseek.experiments.launch import main; sys.exit(main())"
+    process = subprocess.Popen(
+        [sys.executable, "-c", script, "bench", "--trials", str(trials), *args]
+        + ["--out", str(out)],
+        env=environ,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    journal = out / store.TRIALS_NAME
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        pid, status, usage = os.wait4(process.pid, os.WNOHANG)
+        if pid:  # ended by itself (an error): report its status
+            process.returncode = os.waitstatus_to_exitcode(status)
+            return usage.ru_maxrss, process.returncode
+        if journal.exists() and journal.read_bytes().count(b"\n") >= 4:
+            break
+        time.sleep(0.05)
+    process.send_signal(signal.SIGINT)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        pid, status, usage = os.wait4(process.pid, os.WNOHANG)
+        if pid:
+            process.returncode = os.waitstatus_to_exitcode(status)
+            return usage.ru_maxrss, process.returncode
+        time.sleep(0.05)
+    process.kill()  # did not stop on SIGINT (e.g. busy listing 10^9 trials)
+    _, status, usage = os.wait4(process.pid, 0)
+    process.returncode = os.waitstatus_to_exitcode(status)
+    return usage.ru_maxrss, process.returncode
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="RLIMIT_AS, wait4")
+@pytest.mark.parametrize("workers", [1, 2])
+def test_memory_of_a_bench_does_not_grow_with_the_trials_asked_for(
+    tmp_path: Path, workers: int
+) -> None:
+    small, small_code = _peak_rss_of_a_stopped_bench(tmp_path / "small", 40, workers)
+    huge, huge_code = _peak_rss_of_a_stopped_bench(tmp_path / "huge", 10**9, workers)
+    assert (small_code, huge_code) == (130, 130)  # stopped like Ctrl-C, trials stored
+    assert len(read_records(tmp_path / "huge")) >= 4
+    assert huge < 1.1 * small + 30_000, (small, huge)  # KiB
 
 
 @pytest.mark.ray
@@ -456,3 +536,63 @@ def test_killed_cli_run_resumes_to_the_uninterrupted_result(tmp_path: Path) -> N
     assert len(keys) == 8 == len(set(keys))
     assert deterministic(read_records(killed_dir)) == deterministic(read_records(fresh_dir))
     shutil.rmtree(tmp_path)
+
+
+RL_RESULTS = Path(__file__).resolve().parents[1] / "experiments" / "results" / "rl"
+SHIPPED = Path(__file__).resolve().parents[1] / "baselines" / "models"
+
+
+def test_policy_labels_are_portable_and_readable(tmp_path: Path) -> None:
+    from infoseek.experiments.policy_labels import display_name, policy_file, portable_label
+
+    shipped = SHIPPED / "ppo_bearings_v0_4agents" / "model.zip"
+    store_dir = tmp_path / "results" / "bench"
+    model = tmp_path / "results" / "ppo_run" / "model.zip"
+    assert portable_label(shipped, store_dir) == "policy:shipped/ppo_bearings_v0_4agents"
+    assert portable_label(model, store_dir) == "policy:../ppo_run/model.zip"
+    moved = tmp_path / "elsewhere" / "bench"  # the store and its models moved together
+    assert policy_file("policy:../ppo_run/model.zip", moved) == moved.parent / "ppo_run/model.zip"
+    assert policy_file("policy:shipped/ppo_bearings_v0_4agents", moved) == shipped.resolve()
+    assert display_name("policy:../ppo_run/model.zip") == "policy ppo_run"
+    assert (
+        display_name("policy:shipped/ppo_bearings_v0_4agents") == "policy ppo_bearings_v0_4agents"
+    )
+    assert display_name("policy:/old/run/checkpoints/model_20_steps.zip") == (
+        "policy checkpoints/model_20_steps"
+    )
+    row = bench.GroupSummary(
+        "policy:shipped/ppo_bearings_v0_4agents", 4, 1, 1.0, (1, 1, 1), 0, 1, 1
+    )
+    assert "policy ppo_bearings_v0_4agents      4" in bench.format_summary([row], 20)
+
+
+def test_the_committed_rl_bench_resumes_and_verifies_from_another_checkout(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The README's RL bench command, run against a copy of experiments/results/rl somewhere
+    else, finds every trial stored (the groups are keyed by portable labels, not by the path of
+    the checkout that wrote them), and a stored trial of a policy group reproduces there."""
+    pytest.importorskip("stable_baselines3")
+    from infoseek.experiments.cli import main
+
+    copy = tmp_path / "another" / "rl"
+    shutil.copytree(RL_RESULTS, copy)
+    policies = [
+        SHIPPED / "ppo_bearings_v0_4agents" / "model.zip",
+        copy / "ppo_fixed_grid_reward_1m" / "model.zip",
+        copy / "ppo_20_step_episodes" / "model.zip",
+    ]
+    argv = ["bench", "--env", "bearings_v0", *[f"--policy={p}" for p in policies]]
+    for planner in ("single", "pairwise", "random", "lawnmower"):
+        argv += ["--planner", planner]
+    argv += ["--agents", "4", "--trials", "200", "--steps", "20", "--seed", "0"]
+    assert (
+        main([*argv, "--workers", "1", "--no-progress", "--out", str(copy / "bench_20_steps")]) == 0
+    )
+    out = capsys.readouterr().out
+    assert "0 trial(s) run, 1400 of 1400 already stored" in out
+    assert "policy ppo_bearings_v0_4agents" in out and "..." not in out
+    group = "policy:../ppo_20_step_episodes/model.zip/4"
+    verify = ["verify", str(copy / "bench_20_steps"), "--trials", "1", "--group", group]
+    assert main([*verify, "--workers", "1", "--no-progress"]) == 0
+    assert "1 stored trial(s) rerun: 1 reproduced exactly" in capsys.readouterr().out
