@@ -28,11 +28,16 @@ loaded, its ``num_timesteps`` kept, and training continues up to the new ``times
 curve rows after the resumed timestep are dropped. If the newest saved model already reached
 ``timesteps``, nothing is trained. The environment copies restart from fresh episodes, seeded
 with ``seed + resumed timesteps`` so a resumed run does not replay the same episodes. The
-hyperparameters of the resumed run are the saved model's.
+hyperparameters of the resumed run are the saved model's, and ``config.json`` records them; a
+requested hyperparameter that differs from them is refused (``ValueError``) rather than written
+and ignored. Every hyperparameter is type- and range-checked when the :class:`TrainingConfig`
+is built (:mod:`infoseek.baselines.hyperparameters`), and the run directory is written only
+once the model is built.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 import time
@@ -58,6 +63,7 @@ from infoseek.baselines.features import (
     egocentric_layout,
     observation_scaling,
 )
+from infoseek.baselines.hyperparameters import check_hyperparameters
 from infoseek.baselines.policy import ALGORITHMS, CONFIG_FILE, MODEL_FILE
 from infoseek.baselines.vec_env import make_training_vec_env
 from infoseek.envs import make, registry
@@ -201,8 +207,9 @@ class TrainingConfig:
                 f"unknown {algo} hyperparameter(s) {sorted(unknown)}; valid ones are "
                 f"{sorted(_valid_hyperparameters(algo))}"
             )
+        hyperparameters = check_hyperparameters(ALGORITHMS[algo], self.hyperparameters)
         object.__setattr__(self, "env_kwargs", dict(self.env_kwargs))
-        object.__setattr__(self, "hyperparameters", dict(self.hyperparameters))
+        object.__setattr__(self, "hyperparameters", hyperparameters)
 
     def full_env_kwargs(self) -> dict[str, Any]:
         """Environment keywords including ``n_agents`` and ``action_type``."""
@@ -307,6 +314,29 @@ def _check_resumable(out: Path, config: TrainingConfig) -> None:
         )
 
 
+def _resumed_config(out: Path, config: TrainingConfig) -> TrainingConfig:
+    """``config`` with the hyperparameters of the run in ``out`` being resumed.
+
+    A resumed model trains on with the hyperparameters it was saved with, so those are what
+    ``config.json`` must record; a ``--hyper`` value that differs from them would be written
+    but not used, and is refused.
+
+    Raises:
+        ValueError: An explicitly requested hyperparameter differs from the saved run's.
+    """
+    saved = json.loads((out / CONFIG_FILE).read_text()).get("hyperparameters")
+    if not isinstance(saved, dict):  # runs from before config.json recorded them
+        return config
+    for name, value in config.hyperparameters.items():
+        if json.loads(json.dumps(value)) != saved.get(name):
+            raise ValueError(
+                f"{out} holds a run trained with {name}={saved.get(name)!r}; a resumed run "
+                f"keeps the saved model's hyperparameters, so --hyper {name}={value!r} would "
+                "not apply: use another --out for new hyperparameters, or drop --hyper"
+            )
+    return dataclasses.replace(config, hyperparameters=saved)
+
+
 def _write_config(out: Path, config: TrainingConfig, trained_timesteps: int | None) -> Path:
     data = config.to_json()
     data["trained_timesteps"] = trained_timesteps
@@ -367,13 +397,14 @@ def train(
     """
     start = time.perf_counter()
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     _check_resumable(out, config)
+    resume = find_resume_point(out)
+    if resume is not None and (out / CONFIG_FILE).is_file():
+        config = _resumed_config(out, config)
     if config.torch_threads is not None:
         torch.set_num_threads(int(config.torch_threads))
 
     env_kwargs = config.full_env_kwargs()
-    resume = find_resume_point(out)
     curve_path = out / CURVE_FILE
     model_path = out / MODEL_FILE
     algo_class = ALGORITHMS[config.algo]
@@ -390,7 +421,6 @@ def train(
         )
 
     previous = json.loads((out / CONFIG_FILE).read_text()) if (out / CONFIG_FILE).is_file() else {}
-    _write_config(out, config, previous.get("trained_timesteps"))
     vec_env = make_training_vec_env(
         config.env_id, env_kwargs, n_envs=config.n_envs, num_cpus=config.num_cpus
     )
@@ -416,6 +446,8 @@ def train(
             if buffer.is_file():
                 model.load_replay_buffer(str(buffer))
         truncate_curve(curve_path, start_timesteps)
+    out.mkdir(parents=True, exist_ok=True)  # the model is built: now the run directory is written
+    _write_config(out, config, previous.get("trained_timesteps"))
 
     n_slots = vec_env.num_envs
     callbacks: list[Any] = [TqdmProgressCallback(config.timesteps, disable=not progress)]

@@ -65,6 +65,50 @@ def _check_float(
     return number
 
 
+def _check_size_pair(value: object, name: str) -> tuple[float, float]:
+    """A ``(width, height)`` pair of positive finite numbers, errors naming ``name``."""
+    if isinstance(value, str | bytes) or not isinstance(value, Sequence | np.ndarray):
+        raise TypeError(f"{name} must be a (width, height) pair of positive numbers, got {value!r}")
+    if len(value) != 2:
+        raise ValueError(f"{name} must be a (width, height) pair, got {len(value)} value(s)")
+    return (
+        _check_float(value[0], f"{name}[0]", low=0.0, low_open=True),
+        _check_float(value[1], f"{name}[1]", low=0.0, low_open=True),
+    )
+
+
+def _check_bins(value: object, name: str) -> tuple[int, ...] | None:
+    """``None`` or a sequence of integers >= 1 (one per target dimension; the belief checks
+    the count), errors naming ``name``."""
+    if value is None:
+        return None
+    if isinstance(value, str | bytes) or not isinstance(value, Sequence | np.ndarray):
+        raise TypeError(
+            f"{name} must be a tuple of integers >= 1 (one per target dimension) or None, "
+            f"got {value!r}"
+        )
+    return tuple(_check_int(bins, f"{name}[{k}]", 1) for k, bins in enumerate(value))
+
+
+def _as_floats(value: object, name: str) -> FloatArray:
+    """``value`` as a float64 array; a ``TypeError`` naming ``name`` if it is not numbers."""
+    try:
+        return np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be an array of numbers, got {value!r}") from None
+
+
+def _named(name: str, factory: Any, spec: object, kwargs: dict[str, Any]) -> Any:
+    """``factory(spec, **kwargs)`` (a registry lookup), its errors prefixed with ``name``
+    unless they already name it."""
+    try:
+        return factory(spec, **kwargs)
+    except (TypeError, ValueError) as error:
+        if name in str(error):
+            raise
+        raise type(error)(f"{name}: {error}") from None
+
+
 def _check_kwargs(value: object, name: str) -> dict[str, Any]:
     if value is None:
         return {}
@@ -209,12 +253,17 @@ class SearchConfig:
             )
 
         # ---- components
-        self.sensor: Sensor = make_sensor(sensor, **_check_kwargs(sensor_kwargs, "sensor_kwargs"))
-        self.vehicle: Vehicle = make_vehicle(
-            vehicle, **_check_kwargs(vehicle_kwargs, "vehicle_kwargs")
+        self.sensor: Sensor = _named(
+            "sensor", make_sensor, sensor, _check_kwargs(sensor_kwargs, "sensor_kwargs")
         )
-        self.target_motion: TargetMotion = make_target_motion(
-            target_motion, **_check_kwargs(target_motion_kwargs, "target_motion_kwargs")
+        self.vehicle: Vehicle = _named(
+            "vehicle", make_vehicle, vehicle, _check_kwargs(vehicle_kwargs, "vehicle_kwargs")
+        )
+        self.target_motion: TargetMotion = _named(
+            "target_motion",
+            make_target_motion,
+            target_motion,
+            _check_kwargs(target_motion_kwargs, "target_motion_kwargs"),
         )
         self.space: TargetSpace = self._build_space(target_space, domain_size)
         if self.sensor.target_dim != self.space.dim:
@@ -268,7 +317,7 @@ class SearchConfig:
         self.terminate_on_localization = bool(terminate_on_localization)
         self.comm_range = _check_float(comm_range, "comm_range", low=0.0, allow_inf=True)
         self.message_loss = _check_float(message_loss, "message_loss", low=0.0, high=1.0)
-        self.entropy_bins = None if entropy_bins is None else tuple(entropy_bins)
+        self.entropy_bins = _check_bins(entropy_bins, "entropy_bins")
         if (
             not isinstance(belief_grid, Sequence)
             or len(belief_grid) != 2
@@ -283,7 +332,9 @@ class SearchConfig:
         if not isinstance(belief_in_infos, bool | np.bool_):
             raise TypeError(f"belief_in_infos must be True or False, got {belief_in_infos!r}")
         self.belief_in_infos = bool(belief_in_infos)
-        self.name = str(name)
+        if not isinstance(name, str) or not name:
+            raise TypeError(f"name must be a non-empty string, got {name!r}")
+        self.name = name
 
         # ---- agents and start positions
         self.possible_agents = [f"vehicle_{i}" for i in range(self.n_agents)]
@@ -339,7 +390,7 @@ class SearchConfig:
             if domain_size is not None:
                 raise ValueError("domain_size must be None when target_space is a TargetSpace")
             return target_space
-        size = (40.0, 40.0) if domain_size is None else domain_size
+        size = (40.0, 40.0) if domain_size is None else _check_size_pair(domain_size, "domain_size")
         if target_space is None:
             target_space = {2: "planar", 3: "planar_with_orientation"}.get(
                 int(self.sensor.target_dim), ""
@@ -367,14 +418,14 @@ class SearchConfig:
         low = np.asarray(self.space.low, dtype=np.float64)[:2]
         high = np.asarray(self.space.high, dtype=np.float64)[:2]
         if start_positions is not None:
-            positions = np.array(start_positions, dtype=np.float64)
+            positions = _as_floats(start_positions, "start_positions")
             if positions.shape != (self.n_agents, 2) or not np.all(np.isfinite(positions)):
                 raise ValueError(
                     f"start_positions must be a finite ({self.n_agents}, 2) array (one row per "
                     f"agent), got shape {positions.shape}"
                 )
         else:
-            center = np.asarray(start_center, dtype=np.float64)
+            center = _as_floats(start_center, "start_center")
             if center.shape != (2,) or not np.all(np.isfinite(center)):
                 raise ValueError(f"start_center must be a finite (x, y) pair, got {start_center!r}")
             if start_spacing is None:

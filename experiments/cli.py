@@ -47,12 +47,15 @@ from typing import Any
 from infoseek.experiments.arguments import (
     add_environment_overrides,
     check_results_directory,
+    check_seed,
     check_writable_directory,
     check_writable_file,
+    environment_kwargs,
     key_value,
 )
 from infoseek.experiments.claims import add_claims_arguments, run_claims
 from infoseek.experiments.demo import add_demo_arguments, run_demo
+from infoseek.experiments.policies import PLANNER_NAMES
 from infoseek.experiments.store import StoreWarning
 from infoseek.experiments.threads import limited_threads
 from infoseek.experiments.timing import add_timing_arguments, run_timing
@@ -102,7 +105,8 @@ def add_bench_arguments(parser: argparse.ArgumentParser) -> None:
         action="append",
         default=None,
         help="scripted planner (repeatable; default pairwise): "
-        "pairwise, single, joint, random, lawnmower, or package.module:factory",
+        + ", ".join(PLANNER_NAMES)
+        + ", or package.module:factory",
     )
     parser.add_argument(
         "--policy",
@@ -157,8 +161,8 @@ def run_bench_command(args: argparse.Namespace) -> int:
         raise ValueError(f"--trials must be >= 1, got {args.trials}")
     if args.steps is not None and args.steps < 1:
         raise ValueError(f"--steps must be >= 1, got {args.steps}")
-    if args.particles is not None and args.particles < 1:
-        raise ValueError(f"--particles must be >= 1, got {args.particles}")
+    check_seed(args.seed)
+    env_kwargs = environment_kwargs(args)
     out = (
         args.out
         if args.out is not None
@@ -174,9 +178,6 @@ def run_bench_command(args: argparse.Namespace) -> int:
     agents = sorted({n for group in (args.agents or [[4]]) for n in group})
     if any(n < 1 for n in agents):
         raise ValueError(f"--agents must be >= 1, got {agents}")
-    env_kwargs = dict(args.env_kwarg)
-    if args.particles is not None:
-        env_kwargs["n_particles"] = args.particles
     steps = args.steps if args.steps is not None else default_steps(args.env, env_kwargs)
     plan = BenchPlan(
         env=args.env,
@@ -322,6 +323,7 @@ def run_reproduce_command(args: argparse.Namespace) -> int:
         raise ValueError(f"--steps must be >= 1, got {args.steps}")
     if args.particles is not None and args.particles < 1:
         raise ValueError(f"--particles must be >= 1, got {args.particles}")
+    check_seed(args.seed)
     out = args.out if args.out is not None else Path("infoseek-out") / args.figure
     check_writable_directory(out)
     if args.figure == "fig2":

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from infoseek.envs import registry
-from infoseek.experiments.arguments import check_writable_directory
+from infoseek.experiments.arguments import check_seed, check_writable_directory
 from infoseek.experiments.bench import make_env, trial_progress_bar
 from infoseek.experiments.policies import PLANNER_NAMES, make_policy
 
@@ -56,6 +56,9 @@ def run_demo(args: argparse.Namespace) -> int:
         raise ValueError(f"--agents must be >= 1, got {args.agents}")
     if not args.fps > 0:
         raise ValueError(f"--fps must be > 0, got {args.fps}")
+    if args.particles < 1:
+        raise ValueError(f"--particles must be >= 1, got {args.particles}")
+    check_seed(args.seed)
     out = args.out if args.out is not None else Path("infoseek-out")
     check_writable_directory(out)
     kwargs = {"n_agents": args.agents, "n_particles": args.particles, "render_mode": "rgb_array"}

@@ -13,9 +13,10 @@ with 4 agents is 240 timesteps).
 
 **Resuming:** rerun the same command (same ``--out``, algorithm, environment, agents, action type
 and environment keywords) after an interruption, or with a larger ``--timesteps``, and training
-continues from the newest checkpoint (or ``model.zip``) with its timestep count; the rows of
-``eval.csv`` after that count are dropped. Ctrl-C exits with code 130 and keeps the
-checkpoints.
+continues from the newest checkpoint (or ``model.zip``) with its timestep count and its
+hyperparameters (a ``--hyper`` value that differs from the saved run's is refused); the rows of
+``eval.csv`` after that count are dropped. Every ``--hyper`` value is type- and range-checked
+before anything is written. Ctrl-C exits with code 130 and keeps the checkpoints.
 
 Requires the optional RL dependencies (``pip install 'infoseek[rl]'``).
 """
@@ -29,7 +30,9 @@ from pathlib import Path
 from infoseek.envs import registry
 from infoseek.experiments.arguments import (
     add_environment_overrides,
+    check_seed,
     check_writable_directory,
+    environment_kwargs,
     key_value,
 )
 
@@ -123,11 +126,13 @@ def run_train(args: argparse.Namespace) -> int:
         ) from None
 
     check_writable_directory(args.out)
-    env_kwargs = dict(args.env_kwarg)
-    if args.particles is not None:
-        if args.particles < 1:
-            raise ValueError(f"--particles must be >= 1, got {args.particles}")
-        env_kwargs["n_particles"] = args.particles
+    check_seed(args.seed)
+    env_kwargs = environment_kwargs(args)
+    hyper: dict[str, object] = {}
+    for key, value in args.hyper:
+        if key in hyper and hyper[key] != value:
+            raise ValueError(f"--hyper {key} given twice ({hyper[key]!r} and {value!r})")
+        hyper[key] = value
     if args.torch_threads is not None and args.torch_threads < 1:
         raise ValueError(f"--torch-threads must be >= 1, got {args.torch_threads}")
     config = TrainingConfig(
@@ -140,7 +145,7 @@ def run_train(args: argparse.Namespace) -> int:
         n_envs=args.n_envs,
         num_cpus=args.num_cpus,
         env_kwargs=env_kwargs,
-        hyperparameters=dict(args.hyper),
+        hyperparameters=hyper,
         eval_freq=args.eval_freq,
         eval_episodes=args.eval_episodes,
         checkpoint_freq=args.checkpoint_freq,

@@ -242,6 +242,56 @@ def test_resume_continues_from_newest_checkpoint(tmp_path):
         )
 
 
+def test_resume_refuses_hyperparameters_it_would_not_use(tmp_path):
+    """Resuming continues with the saved model's hyperparameters: a different --hyper value is
+    refused (config.json untouched), and a resume without --hyper records the saved values."""
+    config = tiny_config("ppo", "continuous", timesteps=100, eval_freq=0, checkpoint_freq=100)
+    train(config, tmp_path, progress=False)
+    saved = (tmp_path / "config.json").read_bytes()
+    changed = {**TINY_HYPER["ppo"], "gamma": 0.5}
+    longer = dataclass_replace(config, timesteps=200, hyperparameters=changed)
+    with pytest.raises(ValueError, match=r"gamma=0\.95.*--hyper gamma=0\.5"):
+        train(longer, tmp_path, progress=False)
+    assert (tmp_path / "config.json").read_bytes() == saved
+    # a resume that names no hyperparameter keeps (and records) the saved ones
+    recorded = json.loads(saved)
+    recorded["hyperparameters"]["ent_coef"] = 0.25  # as if the defaults had changed since
+    (tmp_path / "config.json").write_text(json.dumps(recorded))
+    train(dataclass_replace(config, timesteps=200, hyperparameters={}), tmp_path, progress=False)
+    after = json.loads((tmp_path / "config.json").read_text())
+    assert after["hyperparameters"] == recorded["hyperparameters"]
+    assert after["trained_timesteps"] == 200
+
+
+@pytest.mark.parametrize(
+    ("hyper", "message"),
+    [
+        ({"n_steps": "abc"}, "n_steps must be an integer, got 'abc'"),
+        ({"n_steps": 0}, r"n_steps must lie in \[1, inf\]"),
+        ({"gamma": 2}, r"gamma must lie in \[0.0, 1.0\]"),
+        ({"gamma": True}, "gamma must be a number"),
+        ({"learning_rate": "fast"}, "learning_rate must be a number or"),
+        ({"net_arch": [64, 0]}, "net_arch must be a list of integers >= 1"),
+        ({"net_arch": 64}, "net_arch must be a list"),
+        ({"normalize_advantage": 1}, "normalize_advantage must be true/false"),
+        ({"target_kl": "x"}, "target_kl must be a number or None"),
+    ],
+)
+def test_every_hyperparameter_is_type_checked_before_anything_is_written(hyper, message, tmp_path):
+    with pytest.raises((TypeError, ValueError), match=message):
+        train(tiny_config("ppo", "continuous", hyperparameters=hyper), tmp_path / "run")
+    assert not (tmp_path / "run").exists()
+
+
+def test_tuple_hyperparameters_are_accepted_from_json_lists():
+    config = tiny_config(
+        "sac", "continuous", hyperparameters={**TINY_HYPER["sac"], "train_freq": [2, "step"]}
+    )
+    assert config.hyperparameters["train_freq"] == (2, "step")
+    with pytest.raises(TypeError, match="train_freq must be an integer or"):
+        tiny_config("sac", "continuous", hyperparameters={"train_freq": [2, 3]})
+
+
 def dataclass_replace(config: TrainingConfig, **changes) -> TrainingConfig:
     import dataclasses
 
