@@ -68,12 +68,40 @@ def test_dependencies_point_one_way(layer: str) -> None:
                 )
 
 
-def test_test_command_of_readme_is_what_ci_runs() -> None:
+def _quickstart() -> tuple[list[str], str]:
+    """The Quickstart's bash lines and the prose after them (up to the next section)."""
     readme = (ROOT / "README.md").read_text()
-    ci = (ROOT / ".ci" / "run").read_text()
-    test_command = 'pip install -e ".[test]" && pytest'
-    assert test_command in readme
-    assert test_command in ci.splitlines()
+    section = readme.split("## Quickstart", 1)[1].split("\n## ", 1)[0]
+    block = section.split("```bash\n", 1)[1].split("```", 1)[0]
+    return block.strip().splitlines(), section
+
+
+def test_test_command_of_readme_is_what_ci_runs() -> None:
+    lines, prose = _quickstart()
+    test_command = lines[1]
+    assert test_command.endswith('pip install -e ".[test]" && pytest')
+    ci = [
+        line.strip()
+        for line in (ROOT / ".ci" / "run").read_text().splitlines()
+        if line.strip() and not line.startswith(("#", "set ", "cd ", "python -m pip install"))
+    ]
+    assert test_command in ci
+    # CI adds exactly what the Quickstart says it adds, and nothing else
+    for added in (line for line in ci if line != test_command):
+        assert f"`{added}`" in prose, f"the Quickstart does not say that CI runs {added!r}"
+
+
+def test_quickstart_installs_the_cpu_build_of_torch_before_the_test_extra() -> None:
+    """An unpinned torch from PyPI is the CUDA build (torch + triton + nvidia-* + cuda-*:
+    6.4 GB on a machine without a GPU); the CPU wheel must be installed in the same command,
+    before the test extra pulls torch."""
+    cpu_index = "--extra-index-url https://download.pytorch.org/whl/cpu"
+    test_command = _quickstart()[0][1]
+    torch_install = test_command.split(" && ")[0]
+    assert torch_install.startswith('pip install "torch==') and torch_install.endswith(cpu_index)
+    assert test_command.index(cpu_index) < test_command.index('pip install -e ".[test]"')
+    ci_first = (ROOT / ".ci" / "run").read_text().split("python -m pip install --quiet ", 1)[1]
+    assert "pip install " + ci_first.splitlines()[0] == torch_install  # CI's first step
 
 
 def test_license_and_citation_agree_with_pyproject() -> None:
