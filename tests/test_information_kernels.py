@@ -448,3 +448,28 @@ def test_smoothed_entropy_keeps_its_float32_option_on_pair_grids():
     single = kernel.smoothed_entropy(grids, dtype=np.float32)
     assert single.dtype == np.float64
     np.testing.assert_allclose(single, exact, rtol=1e-5)
+
+
+def test_sensor_tables_are_built_once_per_sensor_object():
+    import gc
+
+    from infoseek.planners.information import make_estimator
+    from infoseek.planners.information.sensor_cache import sensor_table
+
+    sensor = BearingSensor(sigma=0.1)
+    first = make_estimator("fft", sensor)
+    assert make_estimator("fft", sensor).kernel is first.kernel
+    assert make_estimator("fft", sensor, n_points=128).kernel is not first.kernel
+    assert make_estimator("fft", BearingSensor(sigma=0.1)).kernel is not first.kernel
+    builds: list[int] = []
+
+    class Unhashable:
+        __hash__ = None  # type: ignore[assignment]
+
+    for _ in range(2):
+        sensor_table(Unhashable(), "key", lambda: builds.append(1))
+    assert len(builds) == 2  # built every time, never shared
+    kernel = first.kernel
+    del sensor, first
+    gc.collect()
+    assert make_estimator("fft", BearingSensor(sigma=0.1)).kernel is not kernel

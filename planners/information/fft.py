@@ -38,6 +38,7 @@ from infoseek.planners.information.channels import BATCH_BUDGET
 from infoseek.planners.information.moment_histograms import single_stencil_histograms
 from infoseek.planners.information.noise_kernel import NoiseKernel, grid_points
 from infoseek.planners.information.quadrature import check_points
+from infoseek.planners.information.sensor_cache import sensor_table
 from infoseek.planners.information.stencil_cache import StencilCache
 from infoseek.planners.information.windows import (
     full_grid_pair_entropies,
@@ -64,7 +65,12 @@ class AdditiveFFTEstimator(MIEstimator):
 
     def __init__(self, sensor: Sensor, n_points: int | None = None) -> None:
         super().__init__(sensor)
-        self.kernel = NoiseKernel(sensor, grid_points(sensor, check_points(n_points)))
+        points = check_points(n_points)
+        self.kernel = sensor_table(
+            sensor,
+            ("fft/noise-kernel", points),
+            lambda: NoiseKernel(sensor, grid_points(sensor, points)),
+        )
         self.log_spacing = math.log(self.kernel.spacing)
 
     @property
