@@ -34,6 +34,7 @@ from infoseek.planners.config import PlannerConfig, parse_options
 from infoseek.planners.controls import candidate_grid, controls_to_actions, read_states
 from infoseek.planners.coordination import CoordinationResult, UtilityFunction, coordinate
 from infoseek.planners.information import BeliefMI
+from infoseek.planners.information.base import single_many
 from infoseek.planners.model import EnvModel, FloatArray
 from infoseek.planners.refinement import GridRefiner
 from infoseek.planners.utilities import PlanningBelief, subsample_particles
@@ -295,6 +296,15 @@ class InformationPlanner(Planner):
         """``(K,)`` single-observation MIs on ``belief`` (eq. 20)."""
         return self._timed(belief.single, poses)
 
+    def _singles(self, beliefs: list[BeliefMI], poses: list[FloatArray]) -> list[FloatArray]:
+        """Every vehicle's ``(K,)`` single-observation MIs on its own belief (eq. 20), evaluated
+        together (:func:`~infoseek.planners.information.base.single_many`)."""
+        start = time.perf_counter()
+        try:
+            return single_many(beliefs, poses)
+        finally:
+            self._utility_seconds += time.perf_counter() - start
+
     def _pairs(self, belief: BeliefMI, poses: FloatArray, others: FloatArray) -> FloatArray:
         """``(K, M)`` pair MIs on ``belief``; per-pose work is cached in ``belief``."""
         return self._timed(belief.pairs, poses, others)
@@ -362,7 +372,7 @@ class InformationPlanner(Planner):
         beliefs = self._beliefs(agents, infos)
         tracks = list(self._tracks(states[rows], self.candidates))
         positions = [track[:, 0, :] for track in tracks]
-        singles = [self._single(b, p) for b, p in zip(beliefs, positions, strict=True)]
+        singles = self._singles(beliefs, positions)
         utility = self._utility_function(beliefs, positions, singles)
         result = coordinate(
             [self.candidates] * len(agents),

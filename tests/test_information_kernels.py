@@ -473,3 +473,27 @@ def test_sensor_tables_are_built_once_per_sensor_object():
     del sensor, first
     gc.collect()
     assert make_estimator("fft", BearingSensor(sigma=0.1)).kernel is not kernel
+
+
+def test_single_many_equals_separate_single_calls_bit_for_bit():
+    from infoseek.planners.information import make_estimator
+    from infoseek.planners.information.base import single_many
+
+    sensor = BearingSensor(sigma=0.1)
+    estimator = make_estimator("fft", sensor)
+    rng = np.random.default_rng(16)
+    inputs = []
+    for n in (300, 700, 1200):
+        particles = rng.normal(rng.uniform(5, 35, 2), rng.uniform(0.5, 8.0), (n, 2))
+        inputs.append((particles, rng.gamma(1.0, size=n) if n != 700 else np.ones(n)))
+    beliefs = [estimator.bind(particles, weights) for particles, weights in inputs]
+    pose_sets = [rng.uniform(0, 40, (k, 2)) for k in (9, 4, 1)]
+    together = single_many(beliefs, pose_sets)
+    fresh = [estimator.bind(particles, weights) for particles, weights in inputs]
+    for got, belief, poses in zip(together, fresh, pose_sets, strict=True):
+        assert _same(got, belief.single(poses))
+    other = make_estimator("quadrature", sensor).bind(beliefs[0].particles, beliefs[0].weights)
+    with pytest.raises(ValueError, match="one estimator"):
+        single_many([beliefs[0], other], pose_sets[:2])
+    with pytest.raises(ValueError, match="one pose set per belief"):
+        single_many(beliefs, pose_sets[:2])

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -45,6 +45,7 @@ __all__ = [
     "MIEstimator",
     "check_belief",
     "check_poses",
+    "single_many",
 ]
 
 #: Bytes of per-pose work one :class:`BeliefMI` keeps before it forgets the oldest half.
@@ -252,6 +253,13 @@ class MIEstimator(ABC):
         """``(C,)`` single-observation MIs of ``(C, pose_dim)`` poses."""
         return self.joint(belief, poses[:, None, :]).values
 
+    def singles_of(
+        self, beliefs: Sequence[BeliefMI], pose_sets: Sequence[FloatArray]
+    ) -> list[FloatArray]:
+        """:meth:`singles` of several beliefs (one pose set each), e.g. every vehicle's
+        candidates on its own belief; estimators may share work across them."""
+        return [self.singles(b, poses) for b, poses in zip(beliefs, pose_sets, strict=True)]
+
     def pairs(self, belief: BeliefMI, poses_a: FloatArray, poses_b: FloatArray) -> FloatArray:
         """``(C, M)`` pair MIs of every pose in ``poses_a`` with every pose in ``poses_b``."""
         n_a, n_b = poses_a.shape[0], poses_b.shape[0]
@@ -266,6 +274,29 @@ class MIEstimator(ABC):
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.sensor!r})"
+
+
+def single_many(beliefs: Sequence[BeliefMI], pose_sets: Sequence[Any]) -> list[FloatArray]:
+    """``[beliefs[i].single(pose_sets[i]) ...]``, evaluated together by their (common)
+    estimator (:meth:`MIEstimator.singles_of`).
+
+    Raises:
+        ValueError: The beliefs are bound to different estimators, the lists differ in length,
+            or a pose set is malformed.
+    """
+    if len(beliefs) != len(pose_sets):
+        raise ValueError(f"need one pose set per belief, got {len(pose_sets)} for {len(beliefs)}")
+    if not beliefs:
+        return []
+    estimator = beliefs[0].estimator
+    if any(belief.estimator is not estimator for belief in beliefs):
+        raise ValueError("single_many needs beliefs bound to one estimator")
+    checked = [
+        check_poses(belief.sensor, poses, "poses", "(C, pose_dim)")
+        for belief, poses in zip(beliefs, pose_sets, strict=True)
+    ]
+    values = estimator.singles_of(beliefs, checked)
+    return [np.asarray(value, dtype=np.float64) for value in values]
 
 
 class BeliefMI:

@@ -27,6 +27,7 @@ environment (:mod:`infoseek.envs.compiled`).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -93,25 +94,44 @@ class AdditiveFFTEstimator(MIEstimator):
     def singles(self, belief: BeliefMI, poses: FloatArray) -> FloatArray:
         return self._single_entropies(belief, poses) - self.kernel.entropy
 
+    def singles_of(
+        self, beliefs: Sequence[BeliefMI], pose_sets: Sequence[FloatArray]
+    ) -> list[FloatArray]:
+        """:meth:`singles` of several beliefs, their grids convolved by one batched FFT (each
+        row is transformed on its own, so the values are those of separate calls)."""
+        sizes = [poses.shape[0] for poses in pose_sets]
+        if sum(size * b.n_particles for size, b in zip(sizes, beliefs, strict=True)) > (
+            _SINGLE_CHUNK_ELEMENTS
+        ):
+            return super().singles_of(beliefs, pose_sets)
+        histograms = np.concatenate(
+            [self._histograms(b, poses) for b, poses in zip(beliefs, pose_sets, strict=True)]
+        )
+        entropies = self.kernel.smoothed_entropy(histograms) - self.kernel.entropy
+        return np.split(entropies, np.cumsum(sizes)[:-1])
+
+    def _histograms(self, belief: BeliefMI, poses: FloatArray) -> FloatArray:
+        """``(C, Q)`` single-observation stencil histograms of ``(C, pose_dim)`` poses."""
+        kernel = self.kernel
+        predictions = np.asarray(self.cache(belief).predictions(poses), dtype=np.float32)
+        return single_stencil_histograms(
+            predictions,
+            belief.weights,
+            belief.uniform,
+            kernel.low,
+            kernel.spacing,
+            kernel.n_points,
+            kernel.periodic,
+        )
+
     def _single_entropies(self, belief: BeliefMI, poses: FloatArray) -> FloatArray:
         """Discrete ``H(z)`` of single observations at ``(C, pose_dim)`` poses."""
-        cache = self.cache(belief)
-        kernel = self.kernel
         chunk = max(1, _SINGLE_CHUNK_ELEMENTS // belief.n_particles)
         result = np.empty(poses.shape[0])
         for start in range(0, poses.shape[0], chunk):
             block = poses[start : start + chunk]
-            predictions = np.asarray(cache.predictions(block), dtype=np.float32)
-            histograms = single_stencil_histograms(
-                predictions,
-                belief.weights,
-                belief.uniform,
-                kernel.low,
-                kernel.spacing,
-                kernel.n_points,
-                kernel.periodic,
-            )
-            result[start : start + block.shape[0]] = kernel.smoothed_entropy(histograms)
+            histograms = self._histograms(belief, block)
+            result[start : start + block.shape[0]] = self.kernel.smoothed_entropy(histograms)
         return result
 
     def pairs(self, belief: BeliefMI, poses_a: FloatArray, poses_b: FloatArray) -> FloatArray:
