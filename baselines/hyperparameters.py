@@ -129,7 +129,7 @@ def check_hyperparameters(algorithm: type, values: Mapping[str, Any]) -> dict[st
         TypeError: A value of the wrong type (the message names it and the expected type).
         ValueError: A value out of range.
     """
-    parameters = inspect.signature(algorithm.__init__).parameters
+    parameters = inspect.signature(algorithm).parameters  # the constructor's, without self
     checked: dict[str, Any] = {}
     for name, value in values.items():
         if name == "net_arch":
