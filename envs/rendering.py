@@ -9,16 +9,21 @@ One frame shows, over the search domain box:
 * every vehicle's trail in its own colour (waypoints joined by a thin line), its current
   position and an arrow along its heading (airplanes) or velocity (quadrotors);
 * the belief's MMSE estimate (black X) and the true target position (red square);
-* a legend (below the axes), axis labels, and a title with the step and the belief's
-  posterior mass within the localisation radius of its estimate;
+* a legend (below the axes) with an entry for every kind of mark drawn, axis labels, and a
+  title with the step and the belief's posterior mass within the localisation radius of its
+  estimate;
 * once the belief has collapsed (90 % of its weight inside a box smaller than an eighth of the
-  domain), an inset that zooms on it, with the estimate, the truth and the localisation radius.
+  domain), an inset that zooms on it, with the estimate, the truth, the localisation radius
+  (dashed circle) and a scale bar, in the corner of the axes that hides the fewest trail
+  points, vehicles and markers; the legend then gains entries for the circle and the bar.
 
-The axes always contain the domain box, every vehicle and every trail. The figure and its
-artists are created once and updated in place between frames. ``rgb_array`` frames are drawn
-with the Agg canvas (no display, no global backend change); ``human`` frames use pyplot's
-interactive figure. Matplotlib is imported only here, and this module is imported only when an
-environment renders.
+Every drawn artist carries a ``gid``: a phrase of the legend entry that explains it (``"frame"``
+for the domain box), which ``tests/test_rendering.py`` uses to check that the legend names every
+kind of mark. The axes always contain the domain box, every vehicle and every trail. The
+figure and its artists are created once and updated in place between frames. ``rgb_array``
+frames are drawn with the Agg canvas (no display, no global backend change); ``human`` frames
+use pyplot's interactive figure. Matplotlib is imported only here, and this module is imported
+only when an environment renders.
 """
 
 from __future__ import annotations
@@ -36,6 +41,19 @@ FloatArray = NDArray[np.float64]
 COLLAPSED_MASS = 0.9
 #: Largest side of that box, as a fraction of the domain's largest side.
 COLLAPSED_EXTENT = 1.0 / 8.0
+#: Corners the zoom inset may take, as (x, y, width, height) in axes fractions, preferred first.
+INSET_CORNERS = (
+    (0.64, 0.6, 0.34, 0.34),
+    (0.02, 0.6, 0.34, 0.34),
+    (0.64, 0.02, 0.34, 0.34),
+    (0.02, 0.02, 0.34, 0.34),
+)
+#: Lengths a scale bar may have (distance units).
+SCALE_LENGTHS = (0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0)
+#: Legend labels, and the phrase of each that tags (``gid``) the artists it explains.
+PARTICLES_LABEL = "particles (darker = heavier)"
+RADIUS_LABEL = "zoom: localisation radius around the estimate"
+SCALE_LABEL = "zoom: scale bar (length beside it)"
 
 
 def _palette(n: int) -> list[Any]:
@@ -103,7 +121,7 @@ class SearchRenderer:
             self.figure = Figure(figsize=(size_inches, size_inches), dpi=dpi)
             FigureCanvasAgg(self.figure)
         ax = self.figure.add_subplot(1, 1, 1)
-        self.figure.subplots_adjust(left=0.1, right=0.97, top=0.9, bottom=0.2)
+        self.figure.subplots_adjust(left=0.1, right=0.97, top=0.9, bottom=0.22)
         self.axes = ax
         ax.set_aspect("equal")
         ax.set_xlabel("x (units)")
@@ -115,10 +133,12 @@ class SearchRenderer:
                 fill=False,
                 edgecolor="black",
                 linewidth=1.0,
+                gid="frame",
             )
         )
         self._particles = self._particle_artist(ax, self._scale * 0.02)
         self.trail_lines: list[Any] = []
+        self._colours: list[Any] = []
         self._heads: Any = None
         self.arrows: Any = None
         (self._estimate,) = ax.plot([], [], **_estimate_style(12))
@@ -126,6 +146,8 @@ class SearchRenderer:
         self.title_artist = ax.set_title(title)
         self.legend: Any = None
         self.inset: Any = None
+        self._corner = INSET_CORNERS[0]
+        self._scale_bar: Any = None
         self._fit_axes(np.empty((0, 2)))
 
     # -- artists
@@ -133,11 +155,11 @@ class SearchRenderer:
         from matplotlib.collections import LineCollection
 
         if self._angle_dim is not None:
-            artist = LineCollection([], linewidths=0.8, zorder=2)
+            artist = LineCollection([], linewidths=0.8, zorder=2, gid="particles")
             artist.half_length = half_length  # type: ignore[attr-defined]
             ax.add_collection(artist)
             return artist
-        return ax.scatter([], [], s=4, marker="o", linewidths=0, zorder=2)
+        return ax.scatter([], [], s=4, marker="o", linewidths=0, zorder=2, gid="particles")
 
     def _set_particles(
         self, artist: Any, positions: FloatArray, angles: FloatArray | None, colours: FloatArray
@@ -158,9 +180,10 @@ class SearchRenderer:
             (line,) = self.axes.plot(
                 [], [], ".-", color=colours[a], markersize=3, linewidth=0.8, zorder=3
             )
+            line.set_gid("vehicle")
             self.trail_lines.append(line)
         self._heads = self.axes.scatter(
-            np.zeros(n_agents), np.zeros(n_agents), s=40, c=colours, zorder=4
+            np.zeros(n_agents), np.zeros(n_agents), s=40, c=colours, zorder=4, gid="vehicle"
         )
         self.arrows = self.axes.quiver(
             np.zeros(n_agents),
@@ -173,11 +196,18 @@ class SearchRenderer:
             scale=1.0,
             width=0.006,
             zorder=5,
+            gid="vehicle",
         )
-        self._draw_legend(colours)
+        self._colours = colours
+        self._draw_legend()
 
-    def _draw_legend(self, colours: list[Any]) -> None:
+    def _draw_legend(self) -> None:
+        """The legend below the axes: particles, estimate, truth, the vehicles and, once the
+        zoom inset exists, its radius circle and scale bar."""
         from matplotlib.lines import Line2D
+        from matplotlib.patches import Patch
+
+        colours = self._colours
 
         particle = Line2D(
             [],
@@ -192,7 +222,7 @@ class SearchRenderer:
             Line2D([], [], **_estimate_style(8)),
             Line2D([], [], **_target_style(8)),
         ]
-        labels = ["particles (darker = heavier)", "MMSE estimate", "true target"]
+        labels = [PARTICLES_LABEL, "MMSE estimate", "true target"]
         if len(colours) <= 4:
             for a, colour in enumerate(colours):
                 handles.append(Line2D([], [], color=colour, marker="o", markersize=5))
@@ -200,6 +230,13 @@ class SearchRenderer:
         else:
             handles.append(Line2D([], [], color=colours[0], marker="o", markersize=5))
             labels.append(f"{len(colours)} vehicles (trail, heading; one colour each)")
+        if self.inset is not None:
+            handles.append(Patch(facecolor="none", edgecolor="0.2", linestyle="--"))
+            labels.append(RADIUS_LABEL)
+            handles.append(Line2D([], [], color="black", linewidth=2.5))
+            labels.append(SCALE_LABEL)
+        if self.legend is not None:
+            self.legend.remove()
         # below the axes, so that it never hides particles or vehicles
         self.legend = self.axes.legend(
             handles,
@@ -273,6 +310,7 @@ class SearchRenderer:
         self._fit_axes(np.concatenate(points))
         self._estimate.set_data([estimate[0]], [estimate[1]])
         self._target.set_data([target[0]], [target[1]])
+        self._marks = np.concatenate(points[1:] + [np.asarray(estimate[:2])[None, :]])
         title = f"{self.title}  t = {step}" if self.title else f"t = {step}"
         if mass is not None:
             within = "" if radius is None else f" within {radius:g}"
@@ -308,21 +346,9 @@ class SearchRenderer:
                 self.inset.set_visible(False)
             return
         assert half is not None
-        if self.inset is None:
-            from matplotlib.patches import Circle
-
-            self.inset = self.axes.inset_axes((0.6, 0.6, 0.38, 0.38))
-            self.inset.set_xticks([])
-            self.inset.set_yticks([])
-            self.inset.set_aspect("equal")
-            self.inset.set_title("zoom on the belief", fontsize=7)
-            self._inset_particles = self._particle_artist(self.inset, 0.15 * half)
-            (self._inset_estimate,) = self.inset.plot([], [], **_estimate_style(9))
-            (self._inset_target,) = self.inset.plot([], [], **_target_style(7))
-            self._inset_radius = Circle(
-                (0.0, 0.0), 1.0, fill=False, linestyle="--", linewidth=0.8, edgecolor="0.3"
-            )
-            self.inset.add_patch(self._inset_radius)
+        corner = self._free_corner(np.asarray(estimate[:2]), half)
+        if self.inset is None or corner != self._corner:
+            self._create_inset(corner, half)
         self.inset.set_visible(True)
         view = max(1.5 * half, 1.2 * (radius or 0.0))
         centre = np.asarray(estimate[:2])
@@ -337,6 +363,96 @@ class SearchRenderer:
         self._inset_radius.set_center(tuple(centre))
         self._inset_radius.set_radius(radius if radius else 0.0)
         self._inset_radius.set_visible(bool(radius))
+        self._set_scale_bar(view)
+
+    def _create_inset(self, corner: tuple[float, float, float, float], half: float) -> None:
+        """The zoom axes at ``corner`` (replacing the one elsewhere) and its artists."""
+        from matplotlib import patheffects
+        from matplotlib.patches import Circle
+
+        first = self.inset is None
+        if not first:
+            self.inset.remove()
+        self._corner = corner
+        self.inset = self.axes.inset_axes(corner)
+        self.inset.set_xticks([])
+        self.inset.set_yticks([])
+        self.inset.set_aspect("equal")
+        self.inset.set_title("zoom on the belief", fontsize=7)
+        self._inset_particles = self._particle_artist(self.inset, 0.15 * half)
+        (self._inset_estimate,) = self.inset.plot([], [], **_estimate_style(9))
+        (self._inset_target,) = self.inset.plot([], [], **_target_style(7))
+        self._inset_radius = Circle(
+            (0.0, 0.0),
+            1.0,
+            fill=False,
+            linestyle="--",
+            linewidth=1.2,
+            edgecolor="0.2",
+            zorder=7,  # above the particles, outlined in white to show on dark ones
+            path_effects=[patheffects.withStroke(linewidth=3.0, foreground="white")],
+            gid="localisation radius",
+        )
+        self.inset.add_patch(self._inset_radius)
+        self._scale_bar = None
+        if first and self._colours:
+            self._draw_legend()  # now with the zoom's marks
+
+    def _set_scale_bar(self, view: float) -> None:
+        """A bar of a round length (at most 0.8 of the zoom's half width) in its lower left."""
+        from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+
+        fitting = [length for length in SCALE_LENGTHS if length <= 0.8 * view]
+        length = fitting[-1] if fitting else SCALE_LENGTHS[0]
+        if self._scale_bar is not None:
+            if self._scale_bar.length == length:
+                return
+            self._scale_bar.remove()
+        unit = "unit" if length == 1.0 else "units"
+        self._scale_bar = AnchoredSizeBar(
+            self.inset.transData,
+            length,
+            f"{length:g} {unit}",
+            "lower left",
+            pad=0.2,
+            borderpad=0.3,
+            sep=2,
+            frameon=True,
+            size_vertical=0.03 * view,
+            fontproperties={"size": 7},
+        )
+        self._scale_bar.patch.set_facecolor("white")  # readable over dark particles
+        self._scale_bar.patch.set_alpha(0.85)
+        self._scale_bar.patch.set_edgecolor("none")
+        self._scale_bar.set_zorder(8)
+        self._scale_bar.length = length
+        self._scale_bar.set_gid("scale bar")
+        self.inset.add_artist(self._scale_bar)
+
+    def _free_corner(self, centre: FloatArray, half: float) -> tuple[float, float, float, float]:
+        """The inset corner covering the fewest trail points, vehicles and markers (and not
+        the collapsed belief itself); the current one while no other is strictly better."""
+        x0, x1 = self.axes.get_xlim()
+        y0, y1 = self.axes.get_ylim()
+        box = np.array([[-half, -half], [half, half], [-half, half], [half, -half]]) + centre
+        marks = np.concatenate([self._marks, box])
+        fractions = (marks - [x0, y0]) / [x1 - x0, y1 - y0]
+
+        def covered(corner: tuple[float, float, float, float]) -> int:
+            x, y, w, h = corner
+            inside = (
+                (fractions[:, 0] >= x - 0.02)
+                & (fractions[:, 0] <= x + w + 0.02)
+                & (fractions[:, 1] >= y - 0.02)
+                & (fractions[:, 1] <= y + h + 0.06)  # the inset's title above it
+            )
+            return int(np.count_nonzero(inside))
+
+        counts = {corner: covered(corner) for corner in INSET_CORNERS}
+        best = min(counts.values())
+        if counts[self._corner] == best:
+            return self._corner
+        return next(corner for corner in INSET_CORNERS if counts[corner] == best)
 
     def close(self) -> None:
         """Close the figure (and its window in ``human`` mode)."""
@@ -351,6 +467,7 @@ def _estimate_style(size: float) -> dict[str, Any]:
     from matplotlib import patheffects
 
     return {
+        "gid": "MMSE estimate",
         "marker": "x",
         "markersize": size,
         "markeredgecolor": "black",
@@ -363,6 +480,7 @@ def _estimate_style(size: float) -> dict[str, Any]:
 
 def _target_style(size: float) -> dict[str, Any]:
     return {
+        "gid": "true target",
         "marker": "s",
         "markersize": size,
         "markerfacecolor": "none",

@@ -262,41 +262,17 @@ def write_results(out: str | Path, rows: Sequence[GapRow]) -> list[Path]:
     return [table, data, *plot_ablation(rows, out / "ablation")]
 
 
-def plot_ablation(rows: Sequence[GapRow], stem: Path) -> list[Path]:
-    """(a) the mean-mass gap of every row with its 95 % interval; (b) the gap curves of the
-    ``n_v = 4`` pairwise rows over the episode; (c) those of the treatments at ``n_v = 4``
-    beside pairwise-node in their setting."""
-    from matplotlib.figure import Figure
+#: Legend entry of the gap curves' standard-error bands.
+SE_LABEL = "band: +- 1 standard error of the paired mean"
 
-    figure = Figure(figsize=(15, 5), layout="constrained")
-    bars, curves, treated = figure.subplots(1, 3, width_ratios=(1, 1.1, 1.1))
-    labels = [f"{r.label}, n_v = {r.n_agents}" for r in rows]
-    y = np.arange(len(rows))[::-1]
-    gaps = np.array([r.mass_gap_percent for r in rows])
-    half = np.array([196.0 * r.mass_gap_se / r.mass_single for r in rows])
-    bars.errorbar(gaps, y, xerr=half, fmt="o", capsize=3)
-    bars.axvline(0.0, color="0.5", linewidth=0.8)
-    bars.set_yticks(y, labels, fontsize=8)
-    bars.set_xlabel("mean posterior mass over the episode, minus single's (% of single)")
-    bars.set_title("(a) gain over single-node by setting (95 % interval)")
-    treated_settings = {r.setting for r in rows if r.planner != "pairwise" and r.n_agents == 4}
-    for r in rows:
-        if r.n_agents != 4:
-            continue
-        if r.planner == "pairwise":
-            _gap_curve(curves, r, r.label)
-        if r.setting in treated_settings:
-            _gap_curve(treated, r, r.label if r.planner != "pairwise" else "pairwise")
-    for axes, title in (
-        (curves, "(b) when pairwise-node's gain is made (n_v = 4)"),
-        (treated, "(c) pairwise for k steps, then single (n_v = 4)"),
-    ):
-        axes.axhline(0.0, color="0.5", linewidth=0.8)
-        axes.set_xlabel("step")
-        axes.set_ylabel("mean paired mass difference to single (+- 1 s.e.)")
-        axes.set_title(title)
-        if axes.lines[1:]:
-            axes.legend(fontsize=7)
+
+def plot_ablation(rows: Sequence[GapRow], stem: Path) -> list[Path]:
+    """(a) the mean-mass gap of every row with its 95 % interval; (b) the gap of the
+    ``n_v = 4`` pairwise rows by setting and step, as a colour map (one row per setting: nine
+    noisy curves on one axes could not be told apart); (c) the gap curves of the treatments at
+    ``n_v = 4`` beside pairwise-node in their setting, with one standard error shaded. Every
+    drawn artist carries a ``gid`` naming the legend entry or colour bar that explains it."""
+    figure = ablation_figure(rows)
     paths = []
     for suffix in (".png", ".svg"):
         path = stem.with_suffix(suffix)
@@ -305,9 +281,83 @@ def plot_ablation(rows: Sequence[GapRow], stem: Path) -> list[Path]:
     return paths
 
 
+def ablation_figure(rows: Sequence[GapRow]) -> Any:
+    """The matplotlib ``Figure`` of :func:`plot_ablation`."""
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(17, 5.6), layout="constrained")
+    bars, heat, treated = figure.subplots(1, 3, width_ratios=(1, 1.15, 1.05))
+    _draw_gap_intervals(bars, rows)
+    _draw_gap_map(figure, heat, [r for r in rows if r.n_agents == 4 and r.planner == "pairwise"])
+    treated_settings = {r.setting for r in rows if r.planner != "pairwise" and r.n_agents == 4}
+    for r in rows:
+        if r.n_agents == 4 and r.setting in treated_settings:
+            _gap_curve(treated, r, r.label if r.planner != "pairwise" else "pairwise throughout")
+    treated.axhline(0.0, color="0.5", linewidth=0.8, gid="frame")
+    treated.set_xlabel("step")
+    treated.set_ylabel("mean paired mass gap to single")
+    treated.set_title("(c) pairwise only at first (n_v = 4)")
+    if treated.lines[1:]:
+        from matplotlib.patches import Patch
+
+        handles, labels = treated.get_legend_handles_labels()
+        band = Patch(facecolor="0.5", alpha=0.2)
+        treated.legend([*handles, band], [*labels, SE_LABEL], fontsize=8)
+    return figure
+
+
+def _draw_gap_intervals(axes: Any, rows: Sequence[GapRow]) -> None:
+    """Panel (a): every row's mean-mass gap (% of single's) with its 95 % interval."""
+    labels = [f"{r.label}, n_v = {r.n_agents}" for r in rows]
+    y = np.arange(len(rows))[::-1]
+    gaps = np.array([r.mass_gap_percent for r in rows])
+    half = np.array([196.0 * r.mass_gap_se / r.mass_single for r in rows])
+    label = "mean gap (dot) and its 95 % interval (bar)"
+    container = axes.errorbar(gaps, y, xerr=half, fmt="o", capsize=3, label=label)
+    for artist in container.get_children():
+        artist.set_gid(label)
+    axes.axvline(0.0, color="0.5", linewidth=0.8, gid="frame")
+    axes.set_yticks(y, labels, fontsize=9)
+    axes.set_xlabel("mean posterior mass over the episode, minus single's (% of single)")
+    axes.set_ylim(-1.3, len(rows) - 0.5)  # a free row at the bottom for the legend
+    axes.set_title("(a) gain over single-node by setting")
+    axes.legend(loc="lower right", fontsize=8)
+
+
+def _draw_gap_map(figure: Any, axes: Any, rows: Sequence[GapRow]) -> None:
+    """Panel (b): the mean paired mass gap of each setting (rows) at each step (columns)."""
+    from matplotlib.colors import TwoSlopeNorm
+
+    if not rows:
+        axes.set_axis_off()
+        return
+    length = max(len(r.gap_curve) for r in rows)
+    gaps = np.full((len(rows), length), np.nan)
+    for k, row in enumerate(rows):
+        gaps[k, : len(row.gap_curve)] = row.gap_curve
+    limit = float(np.nanmax(np.abs(gaps))) or 1.0
+    label = "mean paired mass gap, pairwise - single"
+    image = axes.imshow(
+        gaps,
+        aspect="auto",
+        cmap="RdBu_r",
+        norm=TwoSlopeNorm(vcenter=0.0, vmin=-limit, vmax=limit),
+        interpolation="nearest",
+        extent=(-0.5, length - 0.5, len(rows) - 0.5, -0.5),
+        gid=label,
+    )
+    axes.set_yticks(np.arange(len(rows)), [r.label for r in rows], fontsize=9)
+    axes.set_xlabel("step")
+    axes.set_title("(b) when the gain is made (pairwise, n_v = 4)")
+    colour_bar = figure.colorbar(image, ax=axes, fraction=0.05, pad=0.02)
+    colour_bar.set_label(label)
+
+
 def _gap_curve(axes: Any, row: GapRow, label: str) -> None:
     curve = np.array(row.gap_curve)
     steps = np.arange(curve.size)
-    (line,) = axes.plot(steps, curve, label=label)
+    (line,) = axes.plot(steps, curve, label=label, lw=1.6, gid=label)
     se = np.array(row.gap_curve_se)
-    axes.fill_between(steps, curve - se, curve + se, alpha=0.15, color=line.get_color())
+    axes.fill_between(
+        steps, curve - se, curve + se, alpha=0.2, color=line.get_color(), lw=0, gid=SE_LABEL
+    )

@@ -8,14 +8,20 @@ records it per step for agent 0's belief (``mass_agent0``, :mod:`infoseek.experi
 
 Panels, each drawn only if the store has its data:
 
-* (a) ``n_v = 4``: single-node approximation dashed, pairwise-node approximation solid, and
-  the random (dotted) and lawnmower (dash-dot) baselines where the store has them;
+* (a) ``n_v = 4``: single-node approximation dashed (orange), pairwise-node approximation solid
+  (blue), and the random (dotted) and lawnmower (dash-dot) baselines where the store has them;
 * (b) pairwise-node approximation for every stored fleet size (the paper: 2, 3, 4 and 10).
 
 A store with neither (e.g. only random or lawnmower trials) gets one panel with every stored
 (planner, fleet size) curve instead. Curves are the per-step mean; the bars span the 25th to
-75th percentile, drawn every few steps and offset slightly per curve so they stay readable.
-Trials that ended before the others (early termination) are extended with their last value.
+75th percentile (the interquartile range), drawn every few steps and offset slightly per curve
+so they stay readable, and the legend says so (:data:`IQR_LABEL`): the mass of most trials is
+near 0 or near 1, so a mean can lie outside its own bar. In panel (a) only the planners of the
+paper's claim (single- and pairwise-node) get bars. Panel (c) shades one standard error of
+the paired mean (:data:`SE_LABEL`). Every drawn artist carries a ``gid`` naming the legend
+entry that explains it (``"frame"`` for reference lines), which the tests use to check that
+the legend names every kind of mark. Trials that ended before the others (early termination)
+are extended with their last value.
 """
 
 from __future__ import annotations
@@ -31,6 +37,12 @@ from infoseek.experiments.clairvoyant import CLAIRVOYANT_LABEL
 from infoseek.experiments.store import read_manifest, read_records
 
 PAPER_FLEET_SIZES: tuple[int, ...] = (2, 3, 4, 10)
+#: Legend entry of the quartile bars.
+IQR_LABEL = "bars: 25th-75th percentile of the trials\n(the mean may lie outside them)"
+#: Legend entry of the standard-error bands of panel (c).
+SE_LABEL = "band: +- 1 standard error of the paired mean"
+#: Planners of panel (a) that get quartile bars.
+PANEL_A_BARS = ("single", "pairwise")
 
 
 def mass_curves(
@@ -101,18 +113,32 @@ def _draw_group(
     linestyle: str = "-",
     color: Any = None,
     offset: float = 0.0,
+    bars: bool = True,
 ) -> None:
     steps = np.arange(matrix.shape[1])
     mean = np.nanmean(matrix, axis=0)
+    (line,) = axes.plot(steps, mean, linestyle=linestyle, color=color, label=label, lw=1.6)
+    line.set_gid(label)
+    if not bars:
+        return
     q25, q75 = np.nanpercentile(matrix, [25, 75], axis=0)
     every = max(1, matrix.shape[1] // 12)
-    (line,) = axes.plot(steps, mean, linestyle=linestyle, color=color, label=label, lw=1.6)
     marks = steps[::every]
     # Quartile bars span [q25, q75]; the mean of a skewed distribution may lie outside them,
     # so they are drawn as their own segments, not as error bars around the mean.
-    axes.vlines(marks + offset, q25[::every], q75[::every], colors=line.get_color(), lw=1.0)
+    axes.vlines(
+        marks + offset, q25[::every], q75[::every], colors=line.get_color(), lw=1.0, gid=IQR_LABEL
+    )
     for level in (q25[::every], q75[::every]):
-        axes.plot(marks + offset, level, linestyle="none", marker="_", ms=5, color=line.get_color())
+        axes.plot(
+            marks + offset,
+            level,
+            linestyle="none",
+            marker="_",
+            ms=5,
+            color=line.get_color(),
+            gid=IQR_LABEL,
+        )
 
 
 def _draw_paired_differences(
@@ -128,23 +154,38 @@ def _draw_paired_differences(
         se = np.nanstd(difference, axis=0, ddof=1) / np.sqrt(len(trials))
         color = f"C{position % 10}"
         x = np.arange(mean.size)
-        axes.fill_between(x, mean - se, mean + se, color=color, alpha=0.25, lw=0)
-        axes.plot(x, mean, color=color, lw=1.6, label=f"$n_v = {n_agents}$ ({len(trials)} pairs)")
-    axes.axhline(0.0, color="k", lw=0.8)
+        axes.fill_between(x, mean - se, mean + se, color=color, alpha=0.25, lw=0, gid=SE_LABEL)
+        label = f"$n_v = {n_agents}$ ({len(trials)} pairs)"
+        axes.plot(x, mean, color=color, lw=1.6, label=label, gid=label)
+    axes.axhline(0.0, color="k", lw=0.8, gid="frame")
     axes.set_title(_PANEL_TITLES["c"])
     axes.set_xlabel("time step")
     axes.set_ylabel("mass difference (mean +- 1 SE)")
     axes.grid(alpha=0.3)
-    axes.legend(loc="upper right", fontsize="small")
+    from matplotlib.patches import Patch
+
+    handles, labels = axes.get_legend_handles_labels()
+    band = Patch(facecolor="0.5", alpha=0.25, label=SE_LABEL)
+    axes.legend([*handles, band], [*labels, SE_LABEL], loc="upper right", fontsize="small")
 
 
 def _style(axes: Any, title: str, radius: float) -> None:
+    """Title, axis labels, grid and the legend (with an entry for the quartile bars if any)."""
+    from matplotlib.lines import Line2D
+
     axes.set_title(title)
     axes.set_xlabel("time step")
     axes.set_ylabel(f"P(target within {radius:g} of MMSE estimate)")
     axes.set_ylim(-0.02, 1.02)
     axes.grid(alpha=0.3)
-    axes.legend(loc="lower right", fontsize="small")
+    handles, labels = axes.get_legend_handles_labels()
+    if any(artist.get_gid() == IQR_LABEL for artist in axes.collections):
+        handles.append(Line2D([], [], color="0.3", marker="|", ms=11, mew=1.2, ls="none"))
+        labels.append(IQR_LABEL)
+    # below the axes: inside, it would hide curves or bars wherever it went
+    axes.legend(
+        handles, labels, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize="small"
+    )
 
 
 def fig1_panels(groups: Sequence[tuple[str, int]]) -> list[tuple[str, list[tuple[str, int]]]]:
@@ -176,7 +217,7 @@ def fig1_panels(groups: Sequence[tuple[str, int]]) -> list[tuple[str, list[tuple
 
 #: Line style and label of the ``n_v = 4`` curves of panel (a).
 _PANEL_A_STYLES = {
-    "single": ("--", "C0", "single-node"),
+    "single": ("--", "C1", "single-node"),
     "pairwise": ("-", "C0", "pairwise-node"),
     "horizon": ("-", "C3", "receding-horizon"),
     CLAIRVOYANT_LABEL: (":", "C2", "clairvoyant reference (knows the target)"),
@@ -187,7 +228,7 @@ _PANEL_A_STYLES = {
 _PANEL_TITLES = {
     "a": "(a) $n_v = 4$",
     "b": "(b) pairwise-node, varying fleet size",
-    "c": "(c) receding-horizon minus pairwise-node, same targets",
+    "c": "(c) receding-horizon minus pairwise-node (paired)",
     "all": "all stored runs",
 }
 
@@ -205,6 +246,7 @@ def _draw_bounds(
                 lw=1.0,
                 color="k" if black else f"C{position % 10}",
                 label=f"clairvoyant bound, $n_v = {n_agents}$",
+                gid=f"clairvoyant bound, $n_v = {n_agents}$",
             )
 
 
@@ -229,6 +271,21 @@ def plot_fig1(
     Raises:
         ValueError: No records.
     """
+    figure = fig1_figure(records, title, bounds)
+    stem = Path(out_stem)
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    paths = [stem.with_name(stem.name + ".png"), stem.with_name(stem.name + ".svg")]
+    for path in paths:
+        figure.savefig(path, dpi=130)
+    return paths
+
+
+def fig1_figure(
+    records: Sequence[Mapping[str, Any]],
+    title: str = "",
+    bounds: Mapping[int, np.ndarray] | None = None,
+) -> Any:
+    """The matplotlib ``Figure`` of Fig. 1 (arguments as :func:`plot_fig1`)."""
     from matplotlib.figure import Figure
 
     if not records:
@@ -236,7 +293,7 @@ def plot_fig1(
     curves = mass_curves(records)
     radius = float(records[0].get("radius", 1.0))
     panels = fig1_panels(list(curves))
-    figure = Figure(figsize=(6.2 * len(panels), 4.6), layout="constrained")
+    figure = Figure(figsize=(6.6 * len(panels), 6.0), layout="constrained")
     for index, (panel, keys) in enumerate(panels):
         axes = figure.add_subplot(1, len(panels), index + 1)
         if panel == "c":
@@ -244,28 +301,26 @@ def plot_fig1(
             continue
         for position, (planner, n_agents) in enumerate(keys):
             matrix = curves[planner, n_agents]
+            bars = True
             offset = 0.12 * (position - (len(keys) - 1) / 2)
             count = f"({matrix.shape[0]} trials)"
             if panel == "a":
                 style, color, name = _PANEL_A_STYLES[planner]
                 label = f"{name} {count}"
+                bars = planner in PANEL_A_BARS
+                offset = 0.3 * (PANEL_A_BARS.index(planner) - 0.5) if bars else 0.0
             elif panel == "b":
                 label, style, color = f"$n_v = {n_agents}$ {count}", "-", f"C{position % 10}"
             else:
                 label = f"{planner}, $n_v = {n_agents}$ {count}"
                 style, color = "-", f"C{position % 10}"
-            _draw_group(axes, matrix, label, linestyle=style, color=color, offset=offset)
+            _draw_group(axes, matrix, label, linestyle=style, color=color, offset=offset, bars=bars)
         if bounds is not None and panel in ("a", "b"):
             _draw_bounds(axes, bounds, sorted({n for _, n in keys}), black=panel == "a")
         _style(axes, _PANEL_TITLES[panel], radius)
     if title:
         figure.suptitle(title)
-    stem = Path(out_stem)
-    stem.parent.mkdir(parents=True, exist_ok=True)
-    paths = [stem.with_name(stem.name + ".png"), stem.with_name(stem.name + ".svg")]
-    for path in paths:
-        figure.savefig(path, dpi=130)
-    return paths
+    return figure
 
 
 def plot_fig1_from_store(

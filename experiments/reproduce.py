@@ -47,6 +47,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from infoseek.envs.search_env import MIN_PARTICLES
 from infoseek.experiments.bench import BenchPlan, default_steps, derive_seed, make_env
@@ -172,7 +173,6 @@ def reproduce_fig2(
     Returns:
         The written paths, the episode's seed and true beacon, and the snapshot masses.
     """
-    from matplotlib.figure import Figure
 
     steps = max(FIG2_SNAPSHOT_STEPS) if steps is None else steps
     if steps < 1:
@@ -185,6 +185,26 @@ def reproduce_fig2(
     env = make_env(FIG2_ENV, render_mode="rgb_array", **kwargs)
     frames: dict[int, np.ndarray] = {}
     masses: dict[int, float] = {}
+    # one BLAS thread, as every stored trial: the episode's decisions depend on the last bits
+    # of matrix products, which OpenBLAS sums in another order with another thread count
+    with threadpool_limits(limits=1, user_api="blas"):
+        truth = _run_fig2_episode(env, env_seed, target, seed, steps, snapshots, frames, masses)
+    path = _draw_fig2(Path(out), frames, masses, truth)
+    return Fig2Result(paths=[path], env_seed=env_seed, truth=truth, snapshot_masses=masses)
+
+
+def _run_fig2_episode(
+    env: Any,
+    env_seed: int,
+    target: np.ndarray,
+    seed: int,
+    steps: int,
+    snapshots: list[int],
+    frames: dict[int, np.ndarray],
+    masses: dict[int, float],
+) -> np.ndarray:
+    """Run the Fig. 2 episode, filling ``frames`` and ``masses`` at the snapshot steps;
+    returns the true beacon state."""
     try:
         observations, infos = env.reset(seed=env_seed, options={"target": target})
         truth = env.unwrapped.true_target()
@@ -199,20 +219,43 @@ def reproduce_fig2(
                 masses[step] = float(infos[first]["posterior_mass"])
     finally:
         env.close()
+    return np.asarray(truth)
 
-    figure = Figure(figsize=(10, 10), layout="constrained")
-    letters = "abcd"
+
+def _draw_fig2(
+    out: Path, frames: dict[int, np.ndarray], masses: dict[int, float], truth: np.ndarray
+) -> Path:
+    """``out/fig2.png``: the snapshot frames in a 2 x 2 grid at their own resolution (one
+    pixel per frame pixel, so the frames' text stays legible). Each frame carries its own
+    title (step and posterior mass) and legend; the panels get only their letter."""
+    from matplotlib.figure import Figure
+
+    height, width = next(iter(frames.values())).shape[:2]
+    dpi = 100
+    figure = Figure(figsize=(2 * width / dpi, 2 * height / dpi + 0.5), dpi=dpi)
     for index, step in enumerate(sorted(frames)):
-        axes = figure.add_subplot(2, 2, index + 1)
-        axes.imshow(frames[step])
+        row, column = divmod(index, 2)
+        axes = figure.add_axes(
+            (column / 2, (1 - row) * height / (2 * height + 50), 0.5, height / (2 * height + 50))
+        )
+        axes.imshow(frames[step], interpolation="none")
         axes.set_axis_off()
-        axes.set_title(f"({letters[index]}) t = {step}, mass within 1 unit {masses[step]:.2f}")
+        axes.text(
+            0.02,
+            0.985,
+            f"({'abcd'[index]})",
+            transform=axes.transAxes,
+            fontsize=14,
+            fontweight="bold",
+            va="top",
+        )
     figure.suptitle(
         f"{FIG2_AGENTS} quadrotors, pairwise-node planner; true beacon "
-        f"({truth[0]:.1f}, {truth[1]:.1f}), orientation {truth[2]:.3f} (pi/4 = {math.pi / 4:.3f})"
+        f"({truth[0]:.1f}, {truth[1]:.1f}), orientation {truth[2]:.3f} (pi/4 = {math.pi / 4:.3f})",
+        y=1 - 0.1 / (2 * height / dpi + 0.5),
+        va="top",
     )
-    out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     path = out / "fig2.png"
-    figure.savefig(path, dpi=110)
-    return Fig2Result(paths=[path], env_seed=env_seed, truth=truth, snapshot_masses=masses)
+    figure.savefig(path, dpi=dpi)
+    return path
