@@ -49,19 +49,19 @@ def _spectra(
     last_node = table.shape[0] - 2
     spectra = np.zeros((n_poses, n_rows, n), dtype=np.complex64)
     entropy = np.empty((n_poses, n))
-    node = np.empty(n, dtype=np.int64)
-    fraction = np.empty(n, dtype=np.float32)
+    coefficient = np.empty((harmonics + 1, n), dtype=np.float32)
     power_real = np.empty(n, dtype=np.float32)
     power_imag = np.empty(n, dtype=np.float32)
     step_real = np.empty(n, dtype=np.float32)
     step_imag = np.empty(n, dtype=np.float32)
     zero = np.float32(0.0)
     for p in range(n_poses):
-        for i in range(n):
+        for i in range(n):  # per particle: interpolated coefficients, entropy, phase step
             g = min(int(u[p, i]), last_node)
             t = u[p, i] - g
-            node[i] = g
-            fraction[i] = np.float32(t)
+            fraction = np.float32(t)
+            for k in range(harmonics + 1):
+                coefficient[k, i] = table[g, 1, k] * fraction + table[g, 0, k]
             entropy[p, i] = entropies[g] + t * (entropies[g + 1] - entropies[g])
             # cos - 1j sin in complex128 (1j sin = (0 sin - 1 0, sin)), then complex64
             angle = (centre[p, i] - low) * frequency
@@ -70,7 +70,8 @@ def _spectra(
             step_real[i] = np.float32(cosine - real_part)
             step_imag[i] = np.float32(0.0 - sine)
             power_real[i], power_imag[i] = np.float32(1.0), zero
-        for k in range(harmonics + 1):
+        out = spectra[p]
+        for k in range(harmonics + 1):  # per harmonic: the next power, times its coefficient
             for i in range(n):
                 if k == 1:
                     power_real[i], power_imag[i] = step_real[i], step_imag[i]
@@ -78,10 +79,8 @@ def _spectra(
                     power_real[i], power_imag[i] = complex_multiply(
                         power_real[i], power_imag[i], step_real[i], step_imag[i]
                     )
-                g = node[i]
-                coefficient = table[g, 1, k] * fraction[i] + table[g, 0, k]
-                real, imag = complex_multiply(power_real[i], power_imag[i], coefficient, zero)
-                spectra[p, k, i] = complex(real, imag)
+                real, imag = complex_multiply(power_real[i], power_imag[i], coefficient[k, i], zero)
+                out[k, i] = complex(real, imag)
     return spectra, entropy
 
 
