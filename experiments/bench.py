@@ -246,9 +246,16 @@ def trained_policy_loader() -> Callable[..., Any]:
     return loader
 
 
-def check_policy_path(path: str, store: str | os.PathLike[str] = ".") -> str:
-    """Validate a ``--policy`` path; returns its portable planner label for the results
-    directory ``store`` (:func:`infoseek.experiments.policy_labels.portable_label`)."""
+def check_policy_path(path: str, store: str | os.PathLike[str] | None = None) -> str:
+    """Validate a ``--policy`` path; returns its planner label.
+
+    Args:
+        path: The model file (or run directory).
+        store: The results directory the label is for: the label is then portable
+            (:func:`infoseek.experiments.policy_labels.portable_label`, what ``infoseek bench``
+            uses); ``None`` gives ``"policy:<absolute path>"``, valid for any store on this
+            machine but not portable.
+    """
     resolved = Path(path).expanduser().resolve()
     if not resolved.exists():
         raise ValueError(f"--policy {path!r}: no such file or directory")
@@ -261,7 +268,7 @@ def check_policy_path(path: str, store: str | os.PathLike[str] = ".") -> str:
                 "pip install 'infoseek[rl]'"
             ) from None
     trained_policy_loader()
-    return portable_label(resolved, store)
+    return POLICY_PREFIX + str(resolved) if store is None else portable_label(resolved, store)
 
 
 def build_policy(

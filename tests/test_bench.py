@@ -351,6 +351,7 @@ def test_trained_policy_hook_resolves_through_baselines(
 
     # setitem on the module dict: getattr would import the real (torch-based) loader first
     monkeypatch.setitem(vars(infoseek.baselines), "load_policy", fake_load_policy)
+    assert bench.check_policy_path(str(model)) == f"policy:{model.resolve()}"  # no store
     label = bench.check_policy_path(str(model), tmp_path / "run")
     assert label == "policy:../model.zip"  # relative to the store: portable
     result = run_bench(tiny_plan(trials=2, groups=[(label, 2)]), tmp_path / "run", progress=False)
