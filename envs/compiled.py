@@ -8,8 +8,10 @@ numerics``). Three rules make a kernel's floating-point results the same on ever
 
 * **One fixed code-generation target.** Before numba is imported, :func:`configure` sets
   ``NUMBA_CPU_NAME`` (``haswell`` on x86-64 CPUs with AVX2 and FMA, the same kernels the
-  pinned OpenBLAS uses; ``generic`` elsewhere) instead of the host CPU, so the machine code is
-  the same everywhere and the on-disk cache (``cache=True``) can be shared.
+  pinned OpenBLAS uses; ``generic`` elsewhere) and an empty ``NUMBA_CPU_FEATURES`` (that
+  target's own instruction set: unset, numba would add the host's, AVX-512 included) instead
+  of the host CPU, so the machine code is the same everywhere and the on-disk cache
+  (``cache=True``) can be shared.
 * **IEEE arithmetic, evaluated as written.** No fast-math (no reassociation, no contraction of
   ``a * b + c`` into a fused multiply-add, no approximate reciprocals), Intel SVML disabled
   (``NUMBA_DISABLE_INTEL_SVML=1``), no ``parallel=True`` (a threaded reduction sums in an order
@@ -82,6 +84,9 @@ def configure() -> None:
     os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")
     if os.environ.get("INFOSEEK_NATIVE_NUMERICS") != "1":
         os.environ.setdefault("NUMBA_CPU_NAME", _fixed_cpu_name())
+        # the target's own feature set (an unset NUMBA_CPU_FEATURES means the host's features,
+        # e.g. AVX-512 code under the name "haswell")
+        os.environ.setdefault("NUMBA_CPU_FEATURES", "")
     if "numba" in sys.modules:
         from numba.core import config
 
@@ -89,6 +94,8 @@ def configure() -> None:
         config.DISABLE_INTEL_SVML = svml_off  # type: ignore[attr-defined]
         if "NUMBA_CPU_NAME" in os.environ:
             config.CPU_NAME = os.environ["NUMBA_CPU_NAME"]  # type: ignore[attr-defined]
+        if "NUMBA_CPU_FEATURES" in os.environ:
+            config.CPU_FEATURES = os.environ["NUMBA_CPU_FEATURES"]  # type: ignore[attr-defined]
 
 
 configure()
@@ -109,10 +116,18 @@ def describe() -> dict[str, Any]:
     return {
         "numba": numba.__version__,
         "cpu_name": getattr(config, "CPU_NAME", None) or "host",
-        "cpu_features": getattr(config, "CPU_FEATURES", None) or "",
+        "cpu_features": _features(getattr(config, "CPU_FEATURES", None)),
         "svml": not getattr(config, "DISABLE_INTEL_SVML", False),
         "fastmath": KERNEL_OPTIONS["fastmath"],
     }
+
+
+def _features(features: str | None) -> str:
+    """numba's feature string as recorded: ``host`` (unset), ``target`` (empty: the target
+    CPU's own features) or the explicit string."""
+    if features is None:
+        return "host"
+    return features or "target"
 
 
 @kernel
