@@ -10,10 +10,13 @@ from __future__ import annotations
 
 import math
 from numbers import Real
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 from scipy.special import ndtr
 
+from infoseek.envs.compiled import kernel
 from infoseek.envs.sensors.base import FloatArray, ObservationDomain
 
 TWO_PI = 2.0 * math.pi
@@ -41,6 +44,20 @@ def float_dtype(*arrays: object) -> type[np.floating]:
     return np.float64
 
 
+@kernel
+def _all_finite(values: NDArray[Any]) -> bool:
+    for value in values:
+        if not math.isfinite(value):
+            return False
+    return True
+
+
+def all_finite(array: NDArray[Any]) -> bool:
+    """Whether every entry of a float array is finite (one compiled pass that stops at the first
+    NaN or infinity; ``numpy.isfinite(array).all()`` without its boolean temporary)."""
+    return bool(_all_finite(array.reshape(-1)))
+
+
 def as_points(
     array: object, name: str, last_dim: int, owner: str, dtype: type = np.float64
 ) -> FloatArray:
@@ -53,7 +70,7 @@ def as_points(
         )
     if result.ndim < 1 or result.shape[-1] != last_dim:
         raise ValueError(f"{owner}: {name} must have shape (..., {last_dim}), got {result.shape}")
-    if not np.isfinite(result).all():
+    if not all_finite(result):
         raise ValueError(f"{owner}: {name} must be finite (got NaN or inf)")
     return result
 
@@ -80,7 +97,7 @@ def as_particles(
     if not width_ok:
         expected = f"(N, >= {dim})" if allow_wider else f"(N, {dim})"
         raise ValueError(f"{owner}: {name} must have shape {expected}, got {result.shape}")
-    if not np.isfinite(result).all():
+    if not all_finite(result):
         raise ValueError(f"{owner}: {name} must be finite (got NaN or inf)")
     return result
 
@@ -101,7 +118,7 @@ def as_edges(edges: object, domain: ObservationDomain, owner: str) -> FloatArray
     result = np.asarray(edges, dtype=np.float64)
     if result.ndim != 1 or result.shape[0] < 2:
         raise ValueError(f"{owner}: edges must have shape (Q+1,) with Q >= 1, got {result.shape}")
-    if not np.isfinite(result).all():
+    if not all_finite(result):
         raise ValueError(f"{owner}: edges must be finite")
     if not (np.diff(result) > 0.0).all():
         raise ValueError(f"{owner}: edges must be strictly increasing")
