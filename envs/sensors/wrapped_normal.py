@@ -132,10 +132,9 @@ def _wrapped_log_density(
     offsets: FloatArray,
     constants: tuple[float, float, float],
 ) -> FloatArray:
-    flat = np.ascontiguousarray(residual).ravel()
-    out = np.empty(flat.shape[0])
-    _log_densities(flat, out, np.empty(flat.shape[0]), slopes, offsets, constants)
-    return out.reshape(residual.shape)
+    out = np.empty(residual.shape[0])
+    _log_densities(residual, out, np.empty(residual.shape[0]), slopes, offsets, constants)
+    return out
 
 
 def wrapped_log_density(residual: FloatArray, image_sum: ImageSum) -> FloatArray:
@@ -150,7 +149,8 @@ def wrapped_log_density(residual: FloatArray, image_sum: ImageSum) -> FloatArray
     """
     residual = np.ascontiguousarray(residual, dtype=np.float64)
     s = image_sum
-    return _wrapped_log_density(residual, s.slopes, s.offsets, s.constants)  # type: ignore[no-any-return]
+    flat = _wrapped_log_density(residual.reshape(-1), s.slopes, s.offsets, s.constants)
+    return flat.reshape(residual.shape)  # type: ignore[no-any-return]
 
 
 @kernel
