@@ -10,12 +10,13 @@ the table reports every round and the median of the ratios.
 The checkout is imported through a temporary folder ``infoseek/`` of links to its ``envs/``,
 ``planners/``, ``baselines/`` and ``experiments/`` put first on ``PYTHONPATH`` (the layout the
 package installs as), so it needs no installation; it must be a version whose ``infoseek timing``
-has the selected benchmarks.
+knows the selected benchmarks (those it does not know run only under this version).
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -50,13 +51,34 @@ def checkout_tree(checkout: Path, into: Path) -> Path:
     return into
 
 
-def _medians(selected: list[str], repeats: int, python_path: Path | None) -> dict[str, float]:
-    """Median ms of each selected benchmark, from one fresh ``infoseek timing`` process."""
+def _environment(python_path: Path | None) -> dict[str, str]:
+    """This process's environment, with ``python_path`` first on ``PYTHONPATH`` if given."""
     environ = dict(os.environ)
     if python_path is not None:
         environ["PYTHONPATH"] = os.pathsep.join(
             [str(python_path), *filter(None, [environ.get("PYTHONPATH")])]
         )
+    return environ
+
+
+def known_benchmarks(python_path: Path) -> list[str]:
+    """The benchmark names of the version imported through ``python_path``."""
+    script = (
+        "import json; from infoseek.experiments.timing import BENCHMARKS; "
+        "print(json.dumps(list(BENCHMARKS)))"
+    )
+    command = [sys.executable, "-c", script]
+    environ = _environment(python_path)
+    done = subprocess.run(command, env=environ, capture_output=True, text=True)
+    if done.returncode != 0:
+        last = (done.stderr.strip().splitlines() or ["no output"])[-1]
+        raise ValueError(f"--baseline: cannot read its benchmarks: {last}")
+    return list(json.loads(done.stdout))
+
+
+def _medians(selected: list[str], repeats: int, python_path: Path | None) -> dict[str, float]:
+    """Median ms of each selected benchmark, from one fresh ``infoseek timing`` process."""
+    environ = _environment(python_path)
     with tempfile.TemporaryDirectory() as scratch:
         out = Path(scratch) / "timing.json"
         command = [sys.executable, "-m", "infoseek.experiments", "timing"]
@@ -89,14 +111,15 @@ def run_alternating(
         raise ValueError(f"--rounds must be a positive integer, got {rounds}")
     with tempfile.TemporaryDirectory() as scratch:
         tree = checkout_tree(baseline, Path(scratch))
+        known = set(known_benchmarks(tree))
+        shared = [name for name in selected if name in known]
         rows: dict[str, list[dict[str, float]]] = {name: [] for name in selected}
         for _ in range(rounds):
             ours = _medians(selected, repeats, None)
-            theirs = _medians(selected, repeats, tree)
+            theirs = _medians(shared, repeats, tree) if shared else {}
             for name in selected:
-                rows[name].append(
-                    {"a_ms": ours[name], "b_ms": theirs[name], "ratio": theirs[name] / ours[name]}
-                )
+                b_ms = theirs.get(name, math.nan)
+                rows[name].append({"a_ms": ours[name], "b_ms": b_ms, "ratio": b_ms / ours[name]})
     print(f"A: this version; B: {baseline}; {rounds} rounds A B A B ..., {repeats} calls each")
     print(f"{'benchmark':<34} {'round':>5} {'A ms':>9} {'B ms':>9} {'B / A':>7}")
     summary: dict[str, Any] = {}
@@ -105,11 +128,15 @@ def run_alternating(
             a_ms, b_ms, ratio = row["a_ms"], row["b_ms"], row["ratio"]
             print(f"{name:<34} {r + 1:>5} {a_ms:>9.2f} {b_ms:>9.2f} {ratio:>7.2f}")
         ratios = [row["ratio"] for row in per_round]
-        summary[name] = {"rounds": per_round, "median_ratio": float(np.median(ratios))}
+        if name not in known:
+            summary[name] = {"rounds": [{"a_ms": row["a_ms"]} for row in per_round]}
+            print(f"{name:<34} {'all':>5}  (the baseline has no such benchmark)")
+            continue
         print(
             f"{name:<34} {'all':>5} {'':>9} {'':>9} {np.median(ratios):>7.2f}  "
             f"(B / A from {min(ratios):.2f} to {max(ratios):.2f})"
         )
+        summary[name] = {"rounds": per_round, "median_ratio": float(np.median(ratios))}
     if json_path is not None:
         json_path.parent.mkdir(parents=True, exist_ok=True)
         json_path.write_text(json.dumps({"baseline": str(baseline), "results": summary}, indent=2))
