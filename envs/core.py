@@ -35,7 +35,22 @@ FloatArray = NDArray[np.float64]
 ObsArray = NDArray[np.float32]
 BoolArray = NDArray[np.bool_]
 
-__all__ = ["SearchCore", "StepResult", "separation_violations"]
+__all__ = ["SearchCore", "StepResult", "check_seed", "separation_violations"]
+
+
+def check_seed(seed: object, name: str = "seed") -> None:
+    """Raise unless ``seed`` is ``None`` or a non-negative integer (a NumPy root seed).
+
+    Raises:
+        TypeError: ``seed`` is not an integer (a bool counts as not one).
+        ValueError: ``seed`` is negative.
+    """
+    if seed is None:
+        return
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer):
+        raise TypeError(f"{name} must be None or a non-negative integer, got {seed!r}")
+    if seed < 0:
+        raise ValueError(f"{name} must be None or a non-negative integer, got {seed!r}")
 
 
 def separation_violations(positions: FloatArray, min_separation: float) -> NDArray[np.int64]:
@@ -137,6 +152,8 @@ class SearchCore:
             targets: Optional true target per environment (already validated), used instead of
                 the prior draw; the random streams are the same either way.
         """
+        for seed in seeds:  # before any state changes
+            check_seed(seed)
         config = self.config
         a, n = config.n_agents, config.n_particles
         envs = [int(e) for e in envs]

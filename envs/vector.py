@@ -38,6 +38,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvStepRetu
 
 from infoseek.envs.autoreset import AutoResetBatch, WorkerBatch, build_core
 from infoseek.envs.config import SearchConfig
+from infoseek.envs.core import check_seed
 
 __all__ = ["SearchVecEnv", "make_vec"]
 
@@ -86,6 +87,7 @@ class SearchVecEnv(VecEnv):
 
     def seed(self, seed: int | None = None) -> Sequence[int | None]:
         """Seed the next :meth:`reset`: environment ``b`` gets ``seed + b``."""
+        check_seed(seed)
         self._base_seed = seed
         return [None if seed is None else seed + k // self.n_agents for k in range(self.num_envs)]
 

@@ -64,16 +64,14 @@ def test_every_env_keyword_rejects_a_foreign_object_by_name(keyword: str) -> Non
         infoseek.envs.make("bearings_v0", **{keyword: object()})
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="envs/search_env.py: reset() should check seed (None or an int >= 0) and raise "
-    "'seed must be None or a non-negative integer, got -1' (proposed in issue 28's report)",
-)
-@pytest.mark.parametrize("seed", [-1, 1.5, "a"])
+@pytest.mark.parametrize("seed", [-1, 1.5, "a", True])
 def test_reset_names_a_bad_seed(seed: Any) -> None:
     env = infoseek.envs.make("bearings_v0", n_particles=100)
-    with pytest.raises((TypeError, ValueError), match="seed"):
+    with pytest.raises((TypeError, ValueError), match="seed must be None or a non-negative"):
         env.reset(seed=seed)
+    venv = infoseek.envs.make_vec("bearings_v0", num_envs=2, n_particles=100)
+    with pytest.raises((TypeError, ValueError), match="seed must be None or a non-negative"):
+        venv.seed(seed)
 
 
 @pytest.mark.parametrize(
