@@ -410,7 +410,7 @@ def run_timing(args: argparse.Namespace) -> int:
             "target_ms": target,
         }
         verdict = (
-            "" if target is None else f"{target:>10.0f} {'met' if median <= target else 'missed'}"
+            "" if target is None else f"{target:>10g} {'met' if median <= target else 'missed'}"
         )
         print(f"{name:<34} {median:>10.2f} {q25:>9.2f} {q75:>9.2f} {len(times):>6} {verdict}")
     if "mi_single_fast" in rows and "mi_single_general" in rows:
