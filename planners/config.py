@@ -8,8 +8,12 @@ the mutual-information planners and validates them when the planner is built.
 from __future__ import annotations
 
 import dataclasses
+import math
+import types
+import typing
 from collections.abc import Mapping
 from dataclasses import dataclass
+from numbers import Real
 from typing import Any
 
 import numpy as np
@@ -18,7 +22,7 @@ from infoseek.envs.sensors.base import Sensor
 from infoseek.planners.coordination import PenaltySettings
 from infoseek.planners.information import METHODS, MIEstimator, make_estimator
 
-__all__ = ["PlannerConfig", "check_positive_integers", "parse_options"]
+__all__ = ["PlannerConfig", "check_option_type", "check_positive_integers", "parse_options"]
 
 
 def check_positive_integers(config: Any, names: tuple[str, ...]) -> None:
@@ -31,11 +35,15 @@ def check_positive_integers(config: Any, names: tuple[str, ...]) -> None:
 
 
 def parse_options(config_class: type, options: Mapping[str, Any]) -> Any:
-    """Build a frozen config dataclass from keyword options.
+    """Build a frozen config dataclass from keyword options, each checked against its field's
+    annotation first (:func:`check_option_type`); the dataclass then checks ranges.
 
     Raises:
         ValueError: An option that is not a field of ``config_class`` (the message lists the
-            valid ones).
+            valid ones), a number of the wrong kind (``2.5`` for an integer), a non-finite
+            float, or a negative ``seed``.
+        TypeError: An option that is not even a number where one is expected, or of another
+            wrong type (the message names it).
     """
     valid = [f.name for f in dataclasses.fields(config_class)]
     unknown = sorted(set(options) - set(valid))
@@ -43,7 +51,40 @@ def parse_options(config_class: type, options: Mapping[str, Any]) -> Any:
         raise ValueError(
             f"unknown option(s) {unknown} for {config_class.__name__}; valid options: {valid}"
         )
+    hints = typing.get_type_hints(config_class)
+    for name, value in options.items():
+        check_option_type(name, value, hints[name])
     return config_class(**options)
+
+
+def check_option_type(name: str, value: object, annotation: Any) -> None:
+    """Raise unless ``value`` fits ``annotation`` (``int``: an integer, not a bool; ``float``:
+    a finite real number; ``bool``, ``str``; ``X | None``: ``None`` or an ``X``); an option
+    named ``seed`` must also be ``>= 0`` (NumPy's seeds)."""
+    allowed = typing.get_args(annotation) if isinstance(annotation, types.UnionType) else ()
+    if value is None and type(None) in allowed:
+        return
+    kinds = [a for a in allowed if a is not type(None)] or [annotation]
+    for kind in kinds:
+        if kind is bool and isinstance(value, bool | np.bool_):
+            return
+        if kind is str and isinstance(value, str):
+            return
+        if kind is int and isinstance(value, int | np.integer) and not isinstance(value, bool):
+            if name == "seed" and value < 0:
+                raise ValueError(f"seed must be None or a non-negative integer, got {value!r}")
+            return
+        if kind is float and isinstance(value, Real) and not isinstance(value, bool):
+            if not math.isfinite(float(value)):
+                raise ValueError(f"{name} must be a finite number, got {value!r}")
+            return
+        if kind not in (bool, str, int, float):
+            return  # a type this check does not know: the dataclass validates it
+    names = [k.__name__ for k in kinds] + (["None"] if type(None) in allowed else [])
+    message = f"{name} must be {' or '.join(names)}, got {value!r}"
+    if isinstance(value, Real) and not isinstance(value, bool):
+        raise ValueError(message)  # a number of the wrong kind (2.5 for an integer)
+    raise TypeError(message)
 
 
 @dataclass(frozen=True)

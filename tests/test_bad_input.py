@@ -92,12 +92,6 @@ PLANNERS = [
 ]
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="planners/: the config dataclasses should type-check every field in __post_init__ "
-    "(int fields: int not bool; float fields: a finite real; bool fields: bool; seed: None or "
-    "an int >= 0) before their range checks, naming the field (proposed in issue 28's report)",
-)
 @pytest.mark.parametrize("name", PLANNERS)
 def test_planner_options_name_themselves(name: str) -> None:
     import infoseek.planners as planners
