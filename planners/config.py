@@ -20,7 +20,7 @@ import numpy as np
 
 from infoseek.envs.sensors.base import Sensor
 from infoseek.planners.coordination import PenaltySettings
-from infoseek.planners.information import METHODS, MIEstimator, make_estimator
+from infoseek.planners.information import MIEstimator, make_estimator, methods
 
 __all__ = ["PlannerConfig", "check_option_type", "check_positive_integers", "parse_options"]
 
@@ -165,8 +165,9 @@ class PlannerConfig:
             raise ValueError(
                 f"quadrature_points must be None or >= 2, got {self.quadrature_points}"
             )
-        if not isinstance(self.mi_method, str) or self.mi_method not in METHODS:
-            raise ValueError(f"mi_method must be one of {list(METHODS)}, got {self.mi_method!r}")
+        valid = methods()  # the registry now: an estimator registered after import counts
+        if not isinstance(self.mi_method, str) or self.mi_method not in valid:
+            raise ValueError(f"mi_method must be one of {list(valid)}, got {self.mi_method!r}")
         if self.refine_points is not None and (
             isinstance(self.refine_points, bool)
             or not isinstance(self.refine_points, int | np.integer)

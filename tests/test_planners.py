@@ -226,3 +226,20 @@ def test_planner_decides_with_one_blas_thread_and_restores_the_pool(monkeypatch)
     monkeypatch.setenv("INFOSEEK_THREADS", "two")
     with pytest.raises(ValueError, match="INFOSEEK_THREADS"):
         BlasThreads.count()
+
+
+def test_an_estimator_registered_after_import_is_a_valid_mi_method(monkeypatch) -> None:
+    """PlannerConfig checks mi_method against the registry as it is, not a snapshot taken when
+    the planners were imported."""
+    from infoseek.planners.information import ESTIMATORS
+    from infoseek.planners.information.fft import AdditiveFFTEstimator
+
+    class CopiedFFT(AdditiveFFTEstimator):
+        name = "copied_fft"
+
+    monkeypatch.setattr(ESTIMATORS, "_entries", dict(ESTIMATORS._entries))
+    ESTIMATORS.register("copied_fft", CopiedFFT)
+    env = E.make("bearings_v0", n_agents=2, n_particles=200, belief_in_infos=True)
+    observations, infos = env.reset(seed=0)
+    planner = PairwiseNodePlanner.from_env(env, seed=0, mi_method="copied_fft")
+    assert set(planner.act(observations, infos)) == set(env.possible_agents)
