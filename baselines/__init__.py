@@ -13,7 +13,9 @@ supersuit, torch, tensorboard); they are imported on first attribute access, so
   ``config.json``, the ``eval.csv`` training curve, checkpoints and TensorBoard logs
   (:mod:`infoseek.baselines.training`).
 * :func:`evaluate_policy` -> seeded-episode metrics (:mod:`infoseek.baselines.evaluation`).
-* :func:`make_training_vec_env` -> the batched SB3 VecEnv used for training
+* :func:`make_vec` (``env_id, num_envs=B, n_workers=1, **kwargs``) -> a Stable-Baselines3
+  ``VecEnv`` of ``B`` batched copies of an environment, one slot per agent
+  (:mod:`infoseek.baselines.vector`); :func:`make_training_vec_env` is the one training uses
   (:mod:`infoseek.baselines.vec_env`).
 """
 
@@ -26,12 +28,14 @@ __all__ = [
     "ALGORITHMS",
     "DEFAULT_HYPERPARAMETERS",
     "EvaluationResult",
+    "SearchVecEnv",
     "TrainedPolicy",
     "TrainingConfig",
     "TrainingResult",
     "evaluate_policy",
     "load_policy",
     "make_training_vec_env",
+    "make_vec",
     "shipped_model",
     "train",
 ]
@@ -48,6 +52,8 @@ _LAZY_ATTRIBUTES = {
     "EvaluationResult": "infoseek.baselines.evaluation",
     "evaluate_policy": "infoseek.baselines.evaluation",
     "make_training_vec_env": "infoseek.baselines.vec_env",
+    "SearchVecEnv": "infoseek.baselines.vector",
+    "make_vec": "infoseek.baselines.vector",
 }
 
 

@@ -79,13 +79,13 @@ def observation_scaling(env: Any) -> tuple[list[float], list[float]]:
     offset[finite] = 0.5 * (low[finite] + high[finite])
     scale[finite] = 0.5 * (high[finite] - low[finite])
 
-    domain_low = np.asarray(base.space.low, dtype=np.float64)[:2]
-    domain_high = np.asarray(base.space.high, dtype=np.float64)[:2]
+    domain_low = np.asarray(base.config.space.low, dtype=np.float64)[:2]
+    domain_high = np.asarray(base.config.space.high, dtype=np.float64)[:2]
     centre = 0.5 * (domain_low + domain_high)
     half = 0.5 * (domain_high - domain_low)
-    layout = base.observation_layout
+    layout = base.config.observation_layout
     own = layout["own_state"]
-    state_names = list(base.vehicle.state_names)
+    state_names = list(base.config.vehicle.state_names)
     for axis, name in enumerate(("x", "y")):
         if name in state_names:
             j = own.start + state_names.index(name)
@@ -154,8 +154,8 @@ def egocentric_layout(env: Any) -> dict[str, Any]:
         ValueError: The vehicle state has no ``x``/``y`` entries.
     """
     base = env.unwrapped
-    layout = base.observation_layout
-    names = list(base.vehicle.state_names)
+    layout = base.config.observation_layout
+    names = list(base.config.vehicle.state_names)
     if "x" not in names or "y" not in names:
         raise ValueError(f"egocentric features need x and y in the vehicle state, got {names}")
     own = layout["own_state"].start
@@ -168,10 +168,10 @@ def egocentric_layout(env: Any) -> dict[str, Any]:
         "others_start": others.start,
         "n_others": (others.stop - others.start) // 2,
         "grid_start": layout["belief_grid"].start,
-        "grid_shape": [int(g) for g in base.belief_grid],
+        "grid_shape": [int(g) for g in base.config.belief_grid],
         "estimate_start": layout["mmse_estimate"].start,
-        "domain_low": [float(v) for v in np.asarray(base.space.low)[:2]],
-        "domain_high": [float(v) for v in np.asarray(base.space.high)[:2]],
+        "domain_low": [float(v) for v in np.asarray(base.config.space.low)[:2]],
+        "domain_high": [float(v) for v in np.asarray(base.config.space.high)[:2]],
     }
 
 

@@ -2,7 +2,7 @@
 
 One Stable-Baselines3 model is trained on the transitions of every agent of ``n_envs`` copies
 of the environment, stepped at once by the batched vector env
-(:func:`infoseek.baselines.vec_env.make_training_vec_env`, i.e. :func:`infoseek.envs.make_vec`;
+(:func:`infoseek.baselines.vec_env.make_training_vec_env`, i.e. :func:`infoseek.baselines.make_vec`;
 ``num_cpus >= 2`` splits the copies over worker processes); the reward is the
 environment's own per-agent entropy reduction ``H_{t-1} - H_t`` minus the separation penalty.
 A *timestep* is one agent transition, so an episode of ``T`` steps with ``A`` agents counts

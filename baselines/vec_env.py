@@ -1,11 +1,11 @@
 """The parameter-shared training environment of the RL baselines.
 
-:func:`make_training_vec_env` is :func:`infoseek.envs.make_vec`: ``n_envs`` batched copies of
+:func:`make_training_vec_env` is :func:`infoseek.baselines.make_vec`: ``n_envs`` batched copies of
 the environment, every agent of every copy one slot of a Stable-Baselines3 ``VecEnv``, so one
 policy is trained on the transitions of all agents (parameter sharing). Its infos hold only
 scalars plus SB3's ``"TimeLimit.truncated"`` (SB3 bootstraps the value at time-limit
 truncations) and, at the end of an episode, the Monitor-style ``"episode"`` record SB3 logs as
-``rollout/ep_rew_mean`` (conventions: :mod:`infoseek.envs.vector`). ``num_cpus >= 2`` splits
+``rollout/ep_rew_mean`` (conventions: :mod:`infoseek.baselines.vector`). ``num_cpus >= 2`` splits
 the copies over that many worker processes. Seeding: ``seed(s)`` (what SB3 calls) seeds copy
 ``k`` with ``s + k`` at the next reset; later automatic resets continue each copy's own seed
 sequence, so a training run is reproducible from its seed. Evaluation and
@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from infoseek.envs.vector import SearchVecEnv, make_vec
+from infoseek.baselines.vector import SearchVecEnv, make_vec
 
 __all__ = ["make_training_vec_env"]
 

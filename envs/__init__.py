@@ -1,17 +1,16 @@
 """infoseek environments: sensors, vehicles, target models, particle beliefs and PettingZoo envs.
 
-``make(env_id, **kwargs)`` builds a registered environment, ``make_vec(env_id, num_envs=B)``
-a Stable-Baselines3 ``VecEnv`` of ``B`` batched copies (:mod:`infoseek.envs.vector`), and
-``registry`` lists them
-(``"bearings_v0"``, ``"beacon_v0"``). The versioned modules ``infoseek.envs.bearings_v0`` and
+``make(env_id, **kwargs)`` builds a registered environment and ``registry`` lists them
+(``"bearings_v0"``, ``"beacon_v0"``); ``B`` batched copies stepped at once are a
+:class:`~infoseek.envs.core.SearchCore`, which :func:`infoseek.baselines.make_vec` wraps as a
+Stable-Baselines3 ``VecEnv``. The versioned modules ``infoseek.envs.bearings_v0`` and
 ``infoseek.envs.beacon_v0`` expose ``parallel_env``, ``env`` (AEC) and ``raw_env``; their module
 docstrings are the manuals. Everything else is imported lazily on first attribute access, so
 ``import infoseek.envs.sensors`` does not import PettingZoo.
 
 Importing the package registers the single-agent forms with Gymnasium
-(``gymnasium.make("infoseek/Bearings-v0")``, :mod:`infoseek.envs.single_agent`) and tunes the C
-heap so that NumPy temporaries reuse freed pages (:mod:`infoseek.envs.heap`; opt out with
-``INFOSEEK_HEAP_TUNING=0``).
+(``gymnasium.make("infoseek/Bearings-v0")``, :mod:`infoseek.envs.single_agent`) and changes
+no process-wide setting (the C heap tuning of :mod:`infoseek.envs.heap` is opt-in).
 """
 
 from __future__ import annotations
@@ -19,7 +18,6 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from infoseek.envs import heap as _heap  # noqa: F401  (tunes the heap once, on import)
 from infoseek.envs.registration import EnvSpec, make, register, registry
 from infoseek.envs.single_agent import register_with_gymnasium as _register_with_gymnasium
 
@@ -31,14 +29,12 @@ __all__ = [
     "beacon_v0",
     "bearings_v0",
     "make",
-    "make_vec",
     "register",
     "registry",
 ]
 
 _LAZY_ATTRIBUTES = {
     "InformationSeekingEnv": "infoseek.envs.search_env",
-    "make_vec": "infoseek.envs.vector",
 }
 _LAZY_MODULES = ("bearings_v0", "beacon_v0")
 

@@ -2,10 +2,10 @@
 
 :class:`AutoResetBatch` steps a :class:`~infoseek.envs.core.SearchCore` and restarts every
 environment whose episode ended, with the SB3 conventions documented in
-:mod:`infoseek.envs.vector` (terminal observation, ``TimeLimit.truncated``, episode records).
+:mod:`infoseek.baselines.vector` (terminal observation, ``TimeLimit.truncated``, episode records).
 :class:`WorkerBatch` runs one in a worker process (``multiprocessing`` spawn context, so no
 state is inherited) behind the same ``reset`` / ``step_async`` / ``step_wait`` calls;
-:class:`~infoseek.envs.vector.SearchVecEnv` splits its environments over several of them to
+:class:`~infoseek.baselines.vector.SearchVecEnv` splits its environments over several of them to
 use several cores. Only numpy arrays and small dicts cross the pipe.
 """
 
@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from infoseek.envs import heap
 from infoseek.envs.core import SearchCore
 
 __all__ = ["AutoResetBatch", "WorkerBatch", "build_core"]
@@ -109,6 +110,7 @@ class AutoResetBatch:
 
 
 def _worker(connection: Connection, env_id: str, n_envs: int, kwargs: dict[str, Any]) -> None:
+    heap.tune_from_environment()  # as its parent chose (infoseek.envs.heap)
     try:
         batch = AutoResetBatch(build_core(env_id, n_envs, kwargs))
         connection.send(("ready", None))

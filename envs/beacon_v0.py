@@ -28,7 +28,7 @@ prior and, by default, incorporates every agent's observation every step; the fi
 documented noise floor to the (extremely sharp) near-field likelihood (`filter_max_snr`).
 
 **Observations** (flat float32 Box, identical for every agent; slices in
-``env.observation_layout``):
+``env.unwrapped.config.observation_layout``):
 
 | Slice name                  | Size             | Content                        | Bounds |
 |-----------------------------|------------------|--------------------------------|--------|
@@ -49,7 +49,7 @@ flat index `ix * 8 + iy` (x index slowest).
 **Actions.** ``action_type="continuous"``: a ``(2,)`` acceleration; values outside
 ``[-max_accel, max_accel]`` are clipped per axis, NaN/inf raise ``ValueError``.
 ``action_type="discrete"``: an integer ``k`` in ``[0, n_discrete_actions**2)`` meaning the
-acceleration ``env.unwrapped.discrete_controls[k]`` (a ``n x n`` grid of evenly spaced values
+acceleration ``env.unwrapped.config.discrete_controls[k]`` (a ``n x n`` grid of evenly spaced values
 per axis, ``ay`` varying fastest).
 
 **Reward.** Per agent and step: the entropy reduction ``H_{t-1} - H_t`` of its own belief
@@ -70,10 +70,10 @@ planners read). ``env.unwrapped.belief(agent)`` returns it either way. The true 
 only available through ``env.unwrapped.true_target()``.
 
 **Centralised state.** ``env.state()`` (float32, in ``env.state_space``; slices in
-``env.state_layout``): every vehicle's state, every agent's belief grid, MMSE estimate and
-posterior mass (what a centralised critic such as MAPPO's should see; never the true target).
-Layout and bounds: :mod:`infoseek.envs.spaces`. ``state()`` before ``reset()`` raises
-``RuntimeError``.
+``env.unwrapped.config.state_layout``): every vehicle's state, every agent's belief grid, MMSE
+estimate and posterior mass (what a centralised critic such as MAPPO's should see; never the
+true target). Layout and bounds: :mod:`infoseek.envs.spaces`. ``state()`` before ``reset()``
+raises ``RuntimeError``.
 
 
 ### Arguments

@@ -24,7 +24,7 @@ flying at constant speed (1 unit/s) and turning at a commanded rate
 incorporates every agent's observation every step (the paper's full communication).
 
 **Observations** (flat float32 Box, identical for every agent so one shared policy can be
-trained; the slices are in ``env.observation_layout``):
+trained; the slices are in ``env.unwrapped.config.observation_layout``):
 
 | Slice name                  | Size             | Content                        | Bounds |
 |-----------------------------|------------------|--------------------------------|--------|
@@ -43,7 +43,7 @@ flat index `ix * 8 + iy` (x index slowest).
 **Actions.** ``action_type="continuous"``: a ``(1,)`` turn rate; values outside
 ``[-max_turn_rate, max_turn_rate]`` are clipped (not rejected), NaN/inf raise ``ValueError``.
 ``action_type="discrete"``: an integer ``k`` in ``[0, n_discrete_actions)`` meaning turn rate
-``env.unwrapped.discrete_controls[k]`` (evenly spaced from ``-max_turn_rate`` to
+``env.unwrapped.config.discrete_controls[k]`` (evenly spaced from ``-max_turn_rate`` to
 ``+max_turn_rate``).
 
 **Reward.** Per agent and step: the entropy reduction of its own belief,
@@ -67,10 +67,10 @@ an agent's BeliefView either way (``ValueError`` for an unknown agent, ``Runtime
 ``reset``). The true target is only available through ``env.unwrapped.true_target()``.
 
 **Centralised state.** ``env.state()`` (float32, in ``env.state_space``; slices in
-``env.state_layout``): every vehicle's state, every agent's belief grid, MMSE estimate and
-posterior mass (what a centralised critic such as MAPPO's should see; never the true target).
-Layout and bounds: :mod:`infoseek.envs.spaces`. ``state()`` before ``reset()`` raises
-``RuntimeError``.
+``env.unwrapped.config.state_layout``): every vehicle's state, every agent's belief grid, MMSE
+estimate and posterior mass (what a centralised critic such as MAPPO's should see; never the
+true target). Layout and bounds: :mod:`infoseek.envs.spaces`. ``state()`` before ``reset()``
+raises ``RuntimeError``.
 
 
 ### Arguments

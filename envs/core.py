@@ -3,7 +3,7 @@ r"""The batched simulation: ``B`` independent search episodes stepped at once as
 :class:`SearchCore` is the one implementation of the environment's dynamics, measurement,
 communication, filtering, reward and termination (the model and the binding step order are
 documented in :mod:`infoseek.envs.search_env`). The PettingZoo environment is a view of a core
-with ``B = 1``; :func:`infoseek.envs.make_vec` trains on a core with ``B`` copies.
+with ``B = 1``; :func:`infoseek.baselines.make_vec` trains on a core with ``B`` copies.
 
 Arrays are batch-first: vehicle states ``(B, A, state_dim)``, targets ``(B, d)``,
 measurements ``(B, A, obs_dim)``, receptions ``(B, A, A)``, rewards ``(B, A)``, and the

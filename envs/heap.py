@@ -10,8 +10,14 @@ the default shows the difference on the machine at hand (README, Performance).
 :func:`retain_freed_memory` raises the ``mmap`` threshold to 32 MiB and keeps 64 MiB of free
 heap at its top (``M_MMAP_THRESHOLD``, ``M_TOP_PAD``), so the pages of freed temporaries are
 reused. It costs at most that much resident memory and changes no result (only where memory
-comes from). ``import infoseek.envs`` calls it once unless the environment variable
-``INFOSEEK_HEAP_TUNING`` is ``0``; on other C libraries it does nothing.
+comes from); on other C libraries it does nothing.
+
+It is opt-in: importing infoseek changes no process-wide setting. The ``infoseek`` command
+turns it on for its process and for the worker processes it starts (unless the environment
+variable ``INFOSEEK_HEAP_TUNING`` is ``0``); a program of your own calls
+:func:`retain_freed_memory` once, or sets ``INFOSEEK_HEAP_TUNING=1`` so that
+:func:`tune_from_environment` (called by infoseek's worker processes as they start) applies it
+there as well.
 """
 
 from __future__ import annotations
@@ -21,7 +27,11 @@ import ctypes.util
 import os
 import sys
 
-__all__ = ["retain_freed_memory", "tuned"]
+__all__ = ["ENVIRONMENT_VARIABLE", "retain_freed_memory", "tune_from_environment", "tuned"]
+
+#: ``"1"``: worker processes tune their heap as they start; ``"0"``: the ``infoseek`` command
+#: does not tune it either.
+ENVIRONMENT_VARIABLE = "INFOSEEK_HEAP_TUNING"
 
 _M_TOP_PAD = -2
 _M_MMAP_THRESHOLD = -3
@@ -51,5 +61,9 @@ def tuned() -> bool:
     return _state["tuned"]
 
 
-if os.environ.get("INFOSEEK_HEAP_TUNING", "1") != "0":
-    retain_freed_memory()
+def tune_from_environment() -> bool:
+    """Apply :func:`retain_freed_memory` if ``INFOSEEK_HEAP_TUNING`` is ``1`` (what the
+    ``infoseek`` command sets for its worker processes); returns whether the heap is tuned."""
+    if os.environ.get(ENVIRONMENT_VARIABLE) == "1" and not tuned():
+        retain_freed_memory()
+    return tuned()

@@ -133,9 +133,13 @@ class InformationSeekingEnv(ParallelEnv):
 
     Args:
         **config: Every keyword of :class:`~infoseek.envs.config.SearchConfig` (its docstring
-            lists them; an unknown one raises ``ValueError`` listing the valid ones). Its
-            validated settings are readable as attributes of the environment (``env.sensor``,
-            ``env.n_agents``, ``env.filter_sensor``, ...).
+            lists them; an unknown one raises ``ValueError`` listing the valid ones).
+
+    Attributes:
+        config: The validated settings (``env.config.sensor``, ``env.config.n_agents``,
+            ``env.config.filter_sensor``, ...; through PettingZoo wrappers
+            ``env.unwrapped.config``). They are read there, in one place: the environment does
+            not forward them as attributes of its own.
     """
 
     metadata: dict[str, Any] = {
@@ -159,18 +163,6 @@ class InformationSeekingEnv(ParallelEnv):
         self._build_observation_spaces()
         self._trails: list[FloatArray] = []
         self._renderer: Any = None
-
-    def __getattr__(self, name: str) -> Any:
-        # the validated settings (sensor, vehicle, n_agents, dt, ...) live in the config
-        config = self.__dict__.get("config")
-        if config is None or name.startswith("__"):
-            raise AttributeError(name)
-        try:
-            return getattr(config, name)
-        except AttributeError:
-            raise AttributeError(
-                f"{type(self).__name__!r} object has no attribute {name!r}"
-            ) from None
 
     @classmethod
     def config_keys(cls) -> tuple[str, ...]:
@@ -238,7 +230,7 @@ class InformationSeekingEnv(ParallelEnv):
         target = self._target_from_options(options) if options else None
         self._core.reset([0], [seed], [target])
         self.agents = list(self.possible_agents)
-        positions = self.vehicle.position(self._core.states[0])
+        positions = self.config.vehicle.position(self._core.states[0])
         self._trails = [positions.copy()] if self.render_mode is not None else []
         observations, infos = self._observe_all()
         if self.render_mode == "human":
@@ -256,16 +248,16 @@ class InformationSeekingEnv(ParallelEnv):
         if "target" not in options:
             return None
         target = np.asarray(options["target"], dtype=np.float64)
-        if target.shape != (self.space.dim,) or not np.all(np.isfinite(target)):
+        if target.shape != (self.config.space.dim,) or not np.all(np.isfinite(target)):
             raise ValueError(
-                f"reset options['target'] must be {self.space.dim} finite numbers "
-                f"{self.space.names}, got {options['target']!r}"
+                f"reset options['target'] must be {self.config.space.dim} finite numbers "
+                f"{self.config.space.names}, got {options['target']!r}"
             )
-        target = self.space.wrap(target[None])[0]
-        if not bool(np.all(self.space.contains(target[None]))):
+        target = self.config.space.wrap(target[None])[0]
+        if not bool(np.all(self.config.space.contains(target[None]))):
             raise ValueError(
                 f"reset options['target'] {target.tolist()} lies outside the domain "
-                f"[{self.space.low}, {self.space.high}]"
+                f"[{self.config.space.low}, {self.config.space.high}]"
             )
         return target
 
@@ -296,7 +288,7 @@ class InformationSeekingEnv(ParallelEnv):
         controls = self._controls_from_actions(actions)
         result = self._core.step(controls[None])
         if self.render_mode is not None:
-            self._trails.append(self.vehicle.position(self._core.states[0]).copy())
+            self._trails.append(self.config.vehicle.position(self._core.states[0]).copy())
         observations, infos = self._observe_all(result.observations[0])
         rewards = {
             agent: float(result.rewards[0, i]) for i, agent in enumerate(self.possible_agents)
@@ -322,13 +314,13 @@ class InformationSeekingEnv(ParallelEnv):
         missing = [a for a in self.agents if a not in actions]
         if missing:
             raise ValueError(f"no action given for agent(s) {missing}")
-        control_dim = int(self.vehicle.control_dim)
-        controls = np.empty((self.n_agents, control_dim))
+        control_dim = int(self.config.vehicle.control_dim)
+        controls = np.empty((self.config.n_agents, control_dim))
         for agent in self.possible_agents:
             i = self.agent_name_mapping[agent]
             action = actions[agent]
-            if self.discrete_controls is not None:
-                controls[i] = self.discrete_controls[self._discrete_index(agent, action)]
+            if self.config.discrete_controls is not None:
+                controls[i] = self.config.discrete_controls[self._discrete_index(agent, action)]
                 continue
             try:
                 value = np.asarray(action, dtype=np.float64)
@@ -343,12 +335,12 @@ class InformationSeekingEnv(ParallelEnv):
                 )
             if not np.all(np.isfinite(value)):
                 raise ValueError(f"action of {agent} must be finite, got {value.tolist()}")
-            controls[i] = np.clip(value, self.control_low, self.control_high)
+            controls[i] = np.clip(value, self.config.control_low, self.config.control_high)
         return controls
 
     def _discrete_index(self, agent: str, action: Any) -> int:
-        assert self.discrete_controls is not None  # discrete action type
-        n_actions = len(self.discrete_controls)
+        assert self.config.discrete_controls is not None  # discrete action type
+        n_actions = len(self.config.discrete_controls)
         if isinstance(action, np.ndarray) and action.shape in ((), (1,)):
             action = action.reshape(()).item() if action.dtype.kind in "iu" else action
         if isinstance(action, bool | np.bool_) or not isinstance(action, int | np.integer):
@@ -380,7 +372,7 @@ class InformationSeekingEnv(ParallelEnv):
                 "posterior_mass": float(core.masses[0, i]),
                 "separation_violations": int(core.violations[0, i]),
             }
-            if self.belief_in_infos:
+            if self.config.belief_in_infos:
                 infos[agent]["belief"] = self._view(i)
         return observations, infos
 
@@ -473,7 +465,7 @@ class InformationSeekingEnv(ParallelEnv):
 
         if self._renderer is None:
             self._renderer = SearchRenderer(
-                self.space, human=self.render_mode == "human", title=self.metadata["name"]
+                self.config.space, human=self.render_mode == "human", title=self.metadata["name"]
             )
         belief = self.agent_belief(self.possible_agents[0])
         estimate = belief.mmse()
@@ -485,15 +477,15 @@ class InformationSeekingEnv(ParallelEnv):
             trails=np.stack(self._trails) if self._trails else None,
             step=self.cycles,
             headings=self._headings(self._core.states[0]),
-            mass=float(belief.mass_within(self.localization_radius, estimate)),
-            radius=self.localization_radius,
+            mass=float(belief.mass_within(self.config.localization_radius, estimate)),
+            radius=self.config.localization_radius,
         )
         return frame if self.render_mode == "rgb_array" else None
 
     def _headings(self, states: FloatArray) -> FloatArray:
         """``(A, 2)`` unit vectors along each vehicle's heading (a ``heading`` state) or
         velocity (``vx``, ``vy`` states; zero at rest), for the rendered arrows."""
-        names = list(self.vehicle.state_names)
+        names = list(self.config.vehicle.state_names)
         if "heading" in names:
             angle = states[:, names.index("heading")]
             return np.stack([np.cos(angle), np.sin(angle)], axis=1)

@@ -3,7 +3,7 @@
 **Team, parameter sharing.** ``infoseek.baselines.make_training_vec_env(env_id, env_kwargs,
 n_envs=k)`` turns ``k`` copies of the parallel environment into one SB3 ``VecEnv`` with one slot
 per agent per copy (``k * n_agents`` slots), so a single PPO model learns from every agent's
-transitions. It is ``infoseek.envs.make_vec``: the copies are rows of one batched simulator
+transitions. It is ``infoseek.baselines.make_vec``: the copies are rows of one batched simulator
 (no per-copy environment objects), with SB3's conventions (a working ``seed``, auto-reset,
 ``"TimeLimit.truncated"`` and ``"episode"`` records, infos of numbers only). The
 trained model acts for every agent through ``infoseek.baselines.TrainedPolicy`` and is scored

@@ -312,7 +312,7 @@ def _env_step_times(env_id: str, repeats: int) -> np.ndarray:
 
 
 def _vec_step_times(n_workers: int, repeats: int) -> np.ndarray:
-    from infoseek.envs import make_vec
+    from infoseek.baselines import make_vec
 
     venv = make_vec("bearings_v0", num_envs=64, n_workers=n_workers)
     try:

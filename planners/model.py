@@ -66,37 +66,40 @@ class EnvModel:
     def from_env(cls, env: Any) -> EnvModel:
         """Copy the a-priori models from ``env.unwrapped`` (never touches the truth)."""
         base = getattr(env, "unwrapped", env)
+        config: Any = getattr(base, "config", None)
         missing = [
             name
             for name in (
-                "sensor",
+                "filter_sensor",
                 "vehicle",
                 "space",
                 "dt",
                 "min_separation",
                 "action_type",
                 "discrete_controls",
-                "possible_agents",
             )
-            if not hasattr(base, name)
+            if not hasattr(config, name)
         ]
-        if missing:
+        if missing or not hasattr(base, "possible_agents"):
             raise TypeError(
-                f"env: expected an infoseek InformationSeekingEnv, missing attributes {missing}"
+                "env: expected an infoseek InformationSeekingEnv (its settings in "
+                f"env.unwrapped.config), missing {missing or ['possible_agents']}"
             )
         agents = tuple(base.possible_agents)
-        discrete = base.discrete_controls
-        if base.action_type not in ("continuous", "discrete"):
-            raise ValueError(f"env.action_type must be continuous|discrete, got {base.action_type}")
-        if base.action_type == "discrete" and discrete is None:
+        discrete = config.discrete_controls
+        if config.action_type not in ("continuous", "discrete"):
+            raise ValueError(
+                f"env.config.action_type must be continuous|discrete, got {config.action_type}"
+            )
+        if config.action_type == "discrete" and discrete is None:
             raise ValueError("env: discrete action type without discrete_controls")
         return cls(
-            sensor=getattr(base, "filter_sensor", base.sensor),
-            vehicle=base.vehicle,
-            space=base.space,
-            dt=float(base.dt),
-            min_separation=float(base.min_separation),
-            action_type=str(base.action_type),
+            sensor=config.filter_sensor,
+            vehicle=config.vehicle,
+            space=config.space,
+            dt=float(config.dt),
+            min_separation=float(config.min_separation),
+            action_type=str(config.action_type),
             discrete_controls=None
             if discrete is None
             else np.array(discrete, dtype=np.float64, copy=True),

@@ -15,6 +15,7 @@ from typing import Any
 
 import pytest
 
+import infoseek.baselines
 import infoseek.envs
 from infoseek.envs.config import SearchConfig
 from infoseek.experiments.bench import BenchPlan
@@ -69,7 +70,7 @@ def test_reset_names_a_bad_seed(seed: Any) -> None:
     env = infoseek.envs.make("bearings_v0", n_particles=100)
     with pytest.raises((TypeError, ValueError), match="seed must be None or a non-negative"):
         env.reset(seed=seed)
-    venv = infoseek.envs.make_vec("bearings_v0", num_envs=2, n_particles=100)
+    venv = infoseek.baselines.make_vec("bearings_v0", num_envs=2, n_particles=100)
     with pytest.raises((TypeError, ValueError), match="seed must be None or a non-negative"):
         venv.seed(seed)
 
@@ -79,7 +80,7 @@ def test_reset_names_a_bad_seed(seed: Any) -> None:
 )
 def test_make_vec_names_its_arguments(keyword: str, value: Any) -> None:
     with pytest.raises((TypeError, ValueError), match=keyword):
-        infoseek.envs.make_vec("bearings_v0", **{keyword: value})
+        infoseek.baselines.make_vec("bearings_v0", **{keyword: value})
 
 
 # ---------------------------------------------------------------------------- planners

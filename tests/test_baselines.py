@@ -351,7 +351,7 @@ def test_observation_scaling_maps_domain_to_unit_box():
     env = envs.make("bearings_v0", n_agents=3)
     offset, scale = observation_scaling(env)
     extractor = ScaledObservationExtractor(env.observation_space("vehicle_0"), offset, scale)
-    layout = env.unwrapped.observation_layout
+    layout = env.unwrapped.config.observation_layout
     corner = np.zeros((2, 73), np.float32)
     corner[0, 0:2] = [0.0, 0.0]
     corner[1, 0:2] = [40.0, 40.0]
@@ -403,7 +403,7 @@ def _egocentric_extractor(n_agents: int, n_particles: int):
     extractor = EgocentricObservationExtractor(
         env.observation_space("vehicle_0"), offset, scale, egocentric_layout(env)
     )
-    return env, extractor, env.unwrapped.observation_layout
+    return env, extractor, env.unwrapped.config.observation_layout
 
 
 def test_egocentric_features_match_hand_computation():

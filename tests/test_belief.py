@@ -689,8 +689,8 @@ def test_tempering_needs_a_stationary_target() -> None:
         stages[motion is None] = belief.update(sharp, z, pose).n_stages
     assert stages == {False: 1, True: stages[True]} and stages[True] > 1
     env = infoseek.envs.bearings_v0.parallel_env(target_motion="random_walk")
-    assert env.unwrapped.tempering_ess == 0.0
-    assert infoseek.envs.bearings_v0.parallel_env().unwrapped.tempering_ess == 0.1
+    assert env.unwrapped.config.tempering_ess == 0.0
+    assert infoseek.envs.bearings_v0.parallel_env().unwrapped.config.tempering_ess == 0.1
     with pytest.raises(ValueError, match="tempering_ess"):
         infoseek.envs.bearings_v0.parallel_env(target_motion="random_walk", tempering_ess=0.1)
 
@@ -762,6 +762,6 @@ def test_beacon_filter_noise_floor_is_an_inflated_noise_likelihood() -> None:
         expected = inflated.log_likelihood(z, pose, particles[k : k + 1])[0, 0]
         assert floored[k] == pytest.approx(expected, rel=1e-9, abs=1e-12)
     env = infoseek.envs.make("beacon_v0", n_agents=2, n_particles=100)
-    assert env.unwrapped.filter_max_snr == 5.0
+    assert env.unwrapped.config.filter_max_snr == 5.0
     with pytest.raises(ValueError, match="filter_max_snr"):
         infoseek.envs.make("bearings_v0", n_agents=2, filter_max_snr=5.0)

@@ -22,7 +22,7 @@ ORIENTED = TargetSpace.planar_with_orientation()
 @pytest.mark.parametrize("n_particles", [500, 1000, 2000, 5000, 10_000])
 def test_entropy_at_the_uniform_prior_is_the_log_volume(env_id: str, n_particles: int) -> None:
     env = infoseek.envs.make(env_id, n_agents=2, n_particles=n_particles)
-    true = math.log(env.unwrapped.space.volume)  # 7.38 (bearings), 9.22 (beacon)
+    true = math.log(env.unwrapped.config.space.volume)  # 7.38 (bearings), 9.22 (beacon)
     values = []
     for seed in range(5):
         _, infos = env.reset(seed=seed)

@@ -23,7 +23,7 @@ def _random_actions(env, rng: np.random.Generator) -> dict:
     actions = {}
     for agent in env.agents:
         space = env.action_space(agent)
-        if env.action_type == "discrete":
+        if env.config.action_type == "discrete":
             actions[agent] = int(rng.integers(space.n))
         else:
             actions[agent] = rng.uniform(space.low, space.high).astype(np.float32)
@@ -50,11 +50,11 @@ def test_registry_specs_are_frozen_and_point_at_the_versioned_modules() -> None:
 def test_make_returns_parallel_by_default_and_aec_on_request() -> None:
     par = infoseek.envs.make("bearings_v0", n_agents=2, **SMALL)
     assert isinstance(par, InformationSeekingEnv)
-    assert par.n_agents == 2 and par.max_cycles == 8
+    assert par.config.n_agents == 2 and par.max_cycles == 8
     aec = infoseek.envs.make("beacon_v0", parallel=False, n_agents=3, **SMALL)
     assert isinstance(aec, AECEnv)
-    assert aec.unwrapped.n_agents == 3
-    assert aec.unwrapped.sensor.name == "beacon"
+    assert aec.unwrapped.config.n_agents == 3
+    assert aec.unwrapped.config.sensor.name == "beacon"
 
 
 def test_make_unknown_id_lists_the_valid_ids() -> None:
@@ -67,14 +67,24 @@ def test_versioned_defaults_follow_the_paper() -> None:
     bear = infoseek.envs.make("bearings_v0")
     beac = infoseek.envs.make("beacon_v0")
     for env in (bear, beac):
-        assert env.n_agents == 4 and env.n_particles == 2000 and env.dt == 1.0
-        assert env.min_separation == 1.0 and env.localization_radius == 1.0
-        assert tuple(env.space.low[:2]) == (0.0, 0.0) and tuple(env.space.high[:2]) == (40.0, 40.0)
-        assert env.action_type == "continuous" and env.discrete_controls is None
+        assert env.config.n_agents == 4 and env.config.n_particles == 2000 and env.config.dt == 1.0
+        assert env.config.min_separation == 1.0 and env.config.localization_radius == 1.0
+        assert tuple(env.config.space.low[:2]) == (0.0, 0.0) and tuple(
+            env.config.space.high[:2]
+        ) == (40.0, 40.0)
+        assert env.config.action_type == "continuous" and env.config.discrete_controls is None
     assert bear.max_cycles == 60 and beac.max_cycles == 40
-    assert bear.space.dim == 2 and bear.vehicle.name == "airplane" and bear.sensor.name == "bearing"
-    assert beac.space.dim == 3 and beac.vehicle.name == "quadrotor" and beac.sensor.name == "beacon"
-    assert beac.space.periodic[2] and beac.space.high[2] == pytest.approx(2 * np.pi)
+    assert (
+        bear.config.space.dim == 2
+        and bear.config.vehicle.name == "airplane"
+        and bear.config.sensor.name == "bearing"
+    )
+    assert (
+        beac.config.space.dim == 3
+        and beac.config.vehicle.name == "quadrotor"
+        and beac.config.sensor.name == "beacon"
+    )
+    assert beac.config.space.periodic[2] and beac.config.space.high[2] == pytest.approx(2 * np.pi)
 
 
 # --------------------------------------------------------------------------- episode structure
@@ -106,16 +116,16 @@ def test_infos_have_exactly_the_contract_keys(env_id: str) -> None:
             assert "belief" not in info  # numbers and arrays only, for RL frameworks
             assert isinstance(env.belief(agent), BeliefView)
             assert info["agent_index"] == i
-            assert info["vehicle_states"].shape == (3, env.vehicle.state_dim)
+            assert info["vehicle_states"].shape == (3, env.config.vehicle.state_dim)
             assert not info["vehicle_states"].flags.writeable
             assert isinstance(info["belief_recovered"], bool)
             assert isinstance(info["separation_violations"], int)
             assert 0.0 <= info["posterior_mass"] <= 1.0
-            assert 1.0 <= info["ess"] <= env.n_particles + 1e-6
+            assert 1.0 <= info["ess"] <= env.config.n_particles + 1e-6
             belief = env.agent_belief(agent)
             assert info["entropy"] == pytest.approx(belief.entropy())
             assert info["posterior_mass"] == pytest.approx(
-                belief.mass_within(env.localization_radius, belief.mmse())
+                belief.mass_within(env.config.localization_radius, belief.mmse())
             )
         if stage == 0:
             _, _, _, _, infos = env.step(_random_actions(env, np.random.default_rng(0)))
@@ -127,7 +137,7 @@ def test_observation_follows_the_documented_layout(env_id: str, n_agents: int) -
     env = infoseek.envs.make(env_id, n_agents=n_agents, **SMALL)
     env.reset(seed=5)
     obs, _, _, _, infos = env.step(_random_actions(env, np.random.default_rng(5)))
-    layout = env.observation_layout
+    layout = env.config.observation_layout
     assert list(layout) == [
         "own_state",
         "others_relative_positions",
@@ -257,7 +267,7 @@ def _step_and_recompute(env, seed: int):
     z = np.array(env.last_measurements)
     poses = infos["vehicle_0"]["vehicle_states"][:, :2]
     # the beliefs' likelihood: the sensor's, with beacon_v0's filter noise floor (max_snr)
-    filter_model = env.filter_sensor
+    filter_model = env.config.filter_sensor
     results = {}
     for i, agent in enumerate(env.possible_agents):
         loglik = filter_model.log_likelihood(z, poses, particles[agent])
@@ -400,8 +410,8 @@ def test_unseeded_resets_after_a_seeded_reset_are_reproducible() -> None:
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_continuous_actions_outside_the_bounds_are_clipped(env_id: str) -> None:
     envs = [infoseek.envs.make(env_id, n_agents=2, **SMALL) for _ in range(2)]
-    high = envs[0].vehicle.control_high
-    low = envs[0].vehicle.control_low
+    high = envs[0].config.vehicle.control_high
+    low = envs[0].config.vehicle.control_low
     wild = {"vehicle_0": 10.0 * high + 3.0, "vehicle_1": 10.0 * low - 3.0}
     tame = {"vehicle_0": high.copy(), "vehicle_1": low.copy()}
     states = []
@@ -419,14 +429,16 @@ def test_discrete_action_k_applies_control_table_row_k(env_id: str) -> None:
         env_id, n_agents=2, action_type="discrete", n_discrete_actions=k, **SMALL
     )
     cont = infoseek.envs.make(env_id, n_agents=2, **SMALL)
-    table = disc.discrete_controls
-    control_dim = disc.vehicle.control_dim
+    table = disc.config.discrete_controls
+    control_dim = disc.config.vehicle.control_dim
     assert table.shape == (k**control_dim, control_dim)
     assert disc.action_space("vehicle_0").n == k**control_dim
     for axis in range(control_dim):  # every axis takes k evenly spaced values between the bounds
         np.testing.assert_allclose(
             np.unique(table[:, axis]),
-            np.linspace(disc.vehicle.control_low[axis], disc.vehicle.control_high[axis], k),
+            np.linspace(
+                disc.config.vehicle.control_low[axis], disc.config.vehicle.control_high[axis], k
+            ),
         )
     assert len(np.unique(table, axis=0)) == len(table)
     disc.reset(seed=1)
@@ -563,15 +575,15 @@ def test_unknown_configuration_keys_are_rejected_listing_the_valid_ones(env_id: 
 def test_default_start_cluster_is_compact_separated_and_inside_the_domain() -> None:
     for n_agents in (1, 2, 4, 10):
         env = bearings_v0.parallel_env(n_agents=n_agents, **SMALL)
-        positions = env.start_positions
+        positions = env.config.start_positions
         np.testing.assert_allclose(positions.mean(axis=0), (5.0, 5.0), atol=1.0)
         distance = np.linalg.norm(positions[:, None] - positions[None], axis=-1)
         np.fill_diagonal(distance, np.inf)
         if n_agents > 1:
-            assert distance.min() > env.min_separation
+            assert distance.min() > env.config.min_separation
             assert distance.min() <= 2.0 + 1e-12  # close together, as in the paper
     shifted = bearings_v0.parallel_env(n_agents=9, start_center=(0.0, 0.0), **SMALL)
-    assert shifted.start_positions.min() >= 0.0  # shifted into the domain, not rejected
+    assert shifted.config.start_positions.min() >= 0.0  # shifted into the domain, not rejected
 
 
 def test_termination_on_localisation_ends_the_episode_for_everyone() -> None:
@@ -643,3 +655,21 @@ def test_reset_options_place_the_target_and_reject_bad_keys() -> None:
         env.reset(options={"target": [50.0, 1.0, 0.0]})
     with pytest.raises(ValueError, match="3 finite numbers"):
         env.reset(options={"target": [1.0, 1.0]})
+
+
+def test_settings_live_in_the_config_and_are_not_forwarded() -> None:
+    """Issue 27: the env forwarded unknown attributes to its config, so setting one (as the
+    harness's ``make_env`` did with ``belief_in_infos``) made an instance attribute that hid the
+    config's value. The settings are read from ``env.config`` only."""
+    env = infoseek.envs.make("bearings_v0", n_particles=100, belief_in_infos=False)
+    base = env.unwrapped
+    assert base.config.sensor.name == "bearing" and base.config.n_particles == 100
+    for name in ("sensor", "vehicle", "space", "n_particles", "belief_in_infos"):
+        assert not hasattr(base, name), name
+    env.reset(seed=0)
+    _, _, _, _, infos = env.step({a: env.action_space(a).sample() for a in env.agents})
+    assert "belief" not in infos["vehicle_0"]  # the config decides, nothing else
+    on = infoseek.envs.make("bearings_v0", n_particles=100, belief_in_infos=True)
+    on.reset(seed=0)
+    _, _, _, _, infos = on.step({a: on.action_space(a).sample() for a in on.agents})
+    assert "belief" in infos["vehicle_0"]

@@ -89,12 +89,13 @@ def test_state_is_every_vehicle_and_belief_summary_inside_state_space(env_id: st
     while True:
         state = base.state()
         assert state.dtype == np.float32 and base.state_space.contains(state)
-        layout = base.state_layout
+        layout = base.config.state_layout
         np.testing.assert_allclose(
             state[layout["vehicle_states"]], base.vehicle_states.ravel(), rtol=1e-6, atol=1e-5
         )
         grids = [
-            _mass_grid(base.belief(a), base.space, base.belief_grid) for a in env.possible_agents
+            _mass_grid(base.belief(a), base.config.space, base.config.belief_grid)
+            for a in env.possible_agents
         ]
         np.testing.assert_allclose(
             state[layout["belief_grids"]], np.ravel(grids), rtol=1e-5, atol=1e-6
@@ -122,7 +123,7 @@ def test_observation_bounds_are_finite_and_hold_a_vehicle_flying_away(env_id: st
     assert np.all(np.isfinite(env.unwrapped.state_space.low))
     env.reset(seed=0)
     base = env.unwrapped
-    layout = base.observation_layout
+    layout = base.config.observation_layout
     # the straightest escape: airplanes fly straight (zero turn rate), quadrotors accelerate
     # flat out along -x
     action = np.zeros(1) if env_id == "bearings_v0" else np.array([-1.0, 0.0])
@@ -152,7 +153,9 @@ def test_single_agent_form_passes_gymnasium_and_sb3_checkers(gym_id: str) -> Non
         sb3_check_env(env.unwrapped, warn=False)
     observation, info = env.reset(seed=0)
     assert env.observation_space.contains(observation)
-    assert info["entropy"] == pytest.approx(math.log(env.unwrapped.parallel.space.volume), rel=0.01)
+    assert info["entropy"] == pytest.approx(
+        math.log(env.unwrapped.parallel.config.space.volume), rel=0.01
+    )
     steps = 0
     done = False
     while not done:

@@ -144,7 +144,7 @@ def _closed_loop(env_id: str, seeds, options: dict) -> list[float]:
         env = _make(env_id, n_agents=4)
         observations, infos = env.reset(seed=seed)
         base = env.unwrapped
-        low, high = base.control_low, base.control_high
+        low, high = base.config.control_low, base.config.control_high
         planner = PairwiseNodePlanner.from_env(env, seed=seed, **options)
         while env.agents:
             actions = planner.act(observations, infos)
@@ -154,7 +154,7 @@ def _closed_loop(env_id: str, seeds, options: dict) -> list[float]:
             assert all(info["separation_violations"] == 0 for info in infos.values()), seed
             states = infos["vehicle_0"]["vehicle_states"]
             gaps = np.linalg.norm(states[:, None, :2] - states[None, :, :2], axis=-1)
-            assert gaps[np.triu_indices(4, 1)].min() >= base.min_separation
+            assert gaps[np.triu_indices(4, 1)].min() >= base.config.min_separation
         masses.append(min(info["posterior_mass"] for info in infos.values()))
     return masses
 
@@ -201,10 +201,12 @@ def test_planners_score_with_the_likelihood_the_beliefs_apply() -> None:
         posterior = prior[agent] + model
         posterior -= np.logaddexp.reduce(posterior)
         np.testing.assert_allclose(infos[agent]["belief"].log_weights, posterior, atol=1e-9)
-        exact = prior[agent] + base.sensor.log_likelihood(z, poses, particles[agent]).sum(axis=0)
+        exact = prior[agent] + base.config.sensor.log_likelihood(z, poses, particles[agent]).sum(
+            axis=0
+        )
         exact -= np.logaddexp.reduce(exact)
         assert not np.allclose(infos[agent]["belief"].log_weights, exact, atol=1e-3)
-    assert planner.model.sensor.max_snr == 5.0 and base.sensor.max_snr == np.inf
+    assert planner.model.sensor.max_snr == 5.0 and base.config.sensor.max_snr == np.inf
 
 
 def test_planner_decides_with_one_blas_thread_and_restores_the_pool(monkeypatch):

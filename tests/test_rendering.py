@@ -47,7 +47,7 @@ def _draw(renderer: SearchRenderer, particles: np.ndarray, weights: np.ndarray, 
 
 def test_axes_contain_vehicles_and_trails_that_leave_the_domain() -> None:
     env = infoseek.envs.make("bearings_v0", render_mode="rgb_array", n_agents=2, **SMALL)
-    renderer = SearchRenderer(env.unwrapped.space)
+    renderer = SearchRenderer(env.unwrapped.config.space)
     rng = np.random.default_rng(0)
     particles, weights = _uniform_particles(rng)
     # two vehicles flying straight out of the 40 x 40 box, to (-30, 20) and (75, 90)
@@ -70,7 +70,7 @@ def test_demo_episode_keeps_every_vehicle_on_screen() -> None:
     for _ in range(20):
         env.step({a: rng.uniform(-1.0, 1.0, size=1) for a in env.agents})
         env.render()
-        positions = env.unwrapped.vehicle.position(env.unwrapped.vehicle_states)
+        positions = env.unwrapped.config.vehicle.position(env.unwrapped.vehicle_states)
         assert _inside(env.unwrapped.renderer, positions)
     env.close()
 
@@ -89,7 +89,7 @@ def test_legend_colours_headings_and_title() -> None:
     assert renderer.axes.get_xlabel() and renderer.axes.get_ylabel()
     # the arrows point along each airplane's heading
     states = env.unwrapped.vehicle_states
-    heading = states[:, list(env.unwrapped.vehicle.state_names).index("heading")]
+    heading = states[:, list(env.unwrapped.config.vehicle.state_names).index("heading")]
     arrows = np.stack([renderer.arrows.U, renderer.arrows.V], axis=1)
     np.testing.assert_allclose(
         np.arctan2(arrows[:, 1], arrows[:, 0]), np.angle(np.exp(1j * heading))
@@ -102,7 +102,7 @@ def test_legend_colours_headings_and_title() -> None:
 
 def test_inset_appears_exactly_when_the_belief_has_collapsed() -> None:
     env = infoseek.envs.make("bearings_v0", n_agents=1, **SMALL)
-    renderer = SearchRenderer(env.unwrapped.space)
+    renderer = SearchRenderer(env.unwrapped.config.space)
     rng = np.random.default_rng(2)
     particles, weights = _uniform_particles(rng)
     _draw(renderer, particles, weights, trails=None, step=0, radius=1.0)

@@ -1,4 +1,4 @@
-"""The batched vector env (``infoseek.envs.make_vec``): parity with the PettingZoo env, SB3
+"""The batched vector env (``infoseek.baselines.make_vec``): parity with the PettingZoo env, SB3
 conventions, bad input."""
 
 from __future__ import annotations
@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from infoseek.envs import make, make_vec
+from infoseek.baselines import make_vec
+from infoseek.envs import make
 
 TINY = {"n_particles": 300, "max_cycles": 6}
 

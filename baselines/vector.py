@@ -25,6 +25,10 @@ SB3 conventions:
 
 ``n_workers > 1`` splits the ``B`` environments over that many worker processes (one core
 each; :mod:`infoseek.envs.autoreset`): the same slots, seeds and numbers, stepped in parallel.
+
+The adapter lives with the RL baselines because it is Stable-Baselines3's interface: the
+batched simulator it wraps (:class:`~infoseek.envs.core.SearchCore`,
+:mod:`infoseek.envs.autoreset`) needs no RL library, so ``import infoseek.envs`` imports none.
 """
 
 from __future__ import annotations
