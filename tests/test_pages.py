@@ -1,0 +1,138 @@
+"""The results pages (docs/results/*.md) are what their writers make of the committed results
+(:mod:`infoseek.experiments.pages`), so a page cannot drift from its store; a page follows its
+store's data; the provenance says what the manifest records, and only that."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from infoseek.experiments.cli import main
+from infoseek.experiments.pages.provenance import provenance_section, read_provenance
+from infoseek.experiments.pages.registry import PAGES, render_page
+from infoseek.experiments.store import ResultsStore, read_manifest, read_rows
+
+ROOT = Path(__file__).resolve().parents[1]
+RL_STORE = ROOT / "experiments/results/rl/bench_20_steps"
+SHIPPED = "policy:shipped/ppo_bearings_v0_4agents"
+
+
+@pytest.mark.parametrize("name", sorted(PAGES))
+def test_committed_page_is_what_its_results_give(
+    name: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Regenerating each page from the committed results gives the committed page, byte for
+    byte (run from the repository's root, as ``infoseek page NAME`` is)."""
+    page = PAGES[name]
+    monkeypatch.chdir(ROOT)
+    committed = page.default_page.read_text()
+    assert render_page(name, page.default_results, page.default_page) == committed, (
+        f"docs/results/{name}.md differs from what its results give: run `infoseek page {name}`"
+    )
+
+
+def _copy_store(destination: Path, changed: int = 0) -> list[dict]:
+    """A copy of the committed RL bench store through the store API, the shipped policy's
+    trials ``0..changed-1`` localised from their first step on (mass 1 at every step); returns
+    its rows."""
+    rows = read_rows(RL_STORE)
+    copied = []
+    for row in rows:
+        if row["planner"] == SHIPPED and row["trial"] < changed:
+            row = {**row, "mass_agent0": [1.0] * len(row["mass_agent0"])}
+        copied.append(row)
+    with ResultsStore(destination, read_manifest(RL_STORE)["config"]) as store:
+        for row in copied:
+            store.append(row)
+    return copied
+
+
+def test_a_page_follows_its_store(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Changing one stored trial moves the page's number for its group to the mean computed
+    here from the rows, and only that group's."""
+    monkeypatch.chdir(ROOT)
+    before = render_page("rl", RL_STORE.parent, tmp_path / "page.md")
+    results = tmp_path / "rl"
+    rows = _copy_store(results / "bench_20_steps", changed=50)
+    after = render_page("rl", results, tmp_path / "page.md")
+    finals = [row["mass_agent0"][-1] for row in rows if row["planner"] == SHIPPED]
+    expected = f"| `policy ppo_bearings_v0_4agents` | {np.mean(finals):.3f} |"
+    assert expected in after
+    assert expected not in before
+    single = [row["mass_agent0"][-1] for row in rows if row["planner"] == "single"]
+    assert f"| `single` | {np.mean(single):.3f} |" in before
+
+
+def test_provenance_reports_a_recorded_run_and_admits_a_missing_one(tmp_path: Path) -> None:
+    """A store without runs says the machine is not known; one with a run names its machine
+    and wall time, as recorded."""
+    _copy_store(tmp_path / "store")
+    section = provenance_section(read_provenance(tmp_path / "store"))
+    assert "machine and the wall-clock time of the commands that wrote it are not known" in section
+    machine = {"cpu": "Test CPU", "cpus": 3, "memory_gib": 5.0, "system": "OS", "python": "3.x"}
+    with ResultsStore(tmp_path / "store", read_manifest(RL_STORE)["config"]) as store:
+        store.record_run(
+            {
+                "trials": 7,
+                "wall_time": 90.0,
+                "backend": "serial",
+                "workers": 1,
+                "machine": machine,
+                "version": "0",
+            }
+        )
+    section = provenance_section(read_provenance(tmp_path / "store"))
+    assert "7 trials in 90.0 s of wall-clock time" in section
+    assert "Test CPU, 3 logical CPU(s), 5 GiB" in section
+    assert "not known" not in section
+    walls = sum(row["wall_time"] for row in read_rows(tmp_path / "store"))
+    assert f"{walls / 3600:.2f} h in all" in section or f"{walls / 60:.1f} min in all" in section
+
+
+def test_page_command_writes_the_page_and_refuses_a_missing_directory(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``infoseek page`` writes the page it renders; a missing results directory is a one-line
+    error with exit 2 and nothing written."""
+    monkeypatch.chdir(ROOT)
+    results = tmp_path / "rl"
+    _copy_store(results / "bench_20_steps")
+    out = tmp_path / "pages" / "rl.md"
+    assert main(["page", "rl", "--results", str(results), "--out", str(out)]) == 0
+    assert out.read_text() == render_page("rl", results, out)
+    missing = tmp_path / "nothing.md"
+    code = main(["page", "rl", "--results", str(tmp_path / "absent"), "--out", str(missing)])
+    assert code == 2 and not missing.exists()
+    assert "no such directory" in capsys.readouterr().err
+
+
+def test_every_page_is_listed_and_links_its_figure() -> None:
+    """Every page of docs/results except the index is a registered page, and every image it
+    shows exists (paths relative to the page)."""
+    pages = {path.stem for path in (ROOT / "docs/results").glob("*.md")} - {"index"}
+    assert pages == set(PAGES)
+    for name in PAGES:
+        text = (ROOT / "docs/results" / f"{name}.md").read_text()
+        for target in (
+            line.split("](", 1)[1].rstrip(")")
+            for line in text.splitlines()
+            if line.startswith("![")
+        ):
+            assert (ROOT / "docs/results" / target).resolve().exists(), (name, target)
+
+
+def test_reproduce_writes_its_page(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``infoseek reproduce fig2 --page FILE`` ends by writing the page of what it ran, with
+    the snapshot masses of the record it kept."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["reproduce", "fig2", "--steps", "2", "--particles", "100", "--out", "out"]
+    assert main([*argv, "--page", "docs/fig2.md"]) == 0
+    page = (tmp_path / "docs/fig2.md").read_text()
+    assert page == render_page("fig2", Path("out"), Path("docs/fig2.md"))
+    record = json.loads((tmp_path / "out/fig2.json").read_text())
+    for step, mass in record["snapshot_masses"].items():
+        assert f"| {step} | {mass:.3f} |" in page
+    assert "![Fig. 2 reproduction](../out/fig2.png)" in page
