@@ -5,6 +5,7 @@ store's data; the provenance says what the manifest records, and only that."""
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -34,11 +35,11 @@ def test_committed_page_is_what_its_results_give(
     )
 
 
-def _copy_store(destination: Path, changed: int = 0) -> list[dict]:
-    """A copy of the committed RL bench store through the store API, the shipped policy's
-    trials ``0..changed-1`` localised from their first step on (mass 1 at every step); returns
-    its rows."""
-    rows = read_rows(RL_STORE)
+def _copy_store(destination: Path, trials: int, changed: int) -> list[dict]:
+    """Trials ``0..trials-1`` of every group of the committed RL bench store, copied through
+    the store API, the shipped policy's trials ``0..changed-1`` localised from their first step
+    on (mass 1 at every step); returns the copied rows."""
+    rows = [row for row in read_rows(RL_STORE) if row["trial"] < trials]
     copied = []
     for row in rows:
         if row["planner"] == SHIPPED and row["trial"] < changed:
@@ -51,12 +52,14 @@ def _copy_store(destination: Path, changed: int = 0) -> list[dict]:
 
 
 def test_a_page_follows_its_store(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Changing one stored trial moves the page's number for its group to the mean computed
-    here from the rows, and only that group's."""
+    """Changing stored trials of one group moves the page's number for that group to the mean
+    computed here from the rows, and leaves the other groups' numbers."""
     monkeypatch.chdir(ROOT)
-    before = render_page("rl", RL_STORE.parent, tmp_path / "page.md")
     results = tmp_path / "rl"
-    rows = _copy_store(results / "bench_20_steps", changed=50)
+    _copy_store(results / "bench_20_steps", trials=40, changed=0)
+    before = render_page("rl", results, tmp_path / "page.md")
+    shutil.rmtree(results / "bench_20_steps")
+    rows = _copy_store(results / "bench_20_steps", trials=40, changed=10)
     after = render_page("rl", results, tmp_path / "page.md")
     finals = [row["mass_agent0"][-1] for row in rows if row["planner"] == SHIPPED]
     expected = f"| `policy ppo_bearings_v0_4agents` | {np.mean(finals):.3f} |"
@@ -64,12 +67,13 @@ def test_a_page_follows_its_store(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     assert expected not in before
     single = [row["mass_agent0"][-1] for row in rows if row["planner"] == "single"]
     assert f"| `single` | {np.mean(single):.3f} |" in before
+    assert f"| `single` | {np.mean(single):.3f} |" in after
 
 
 def test_provenance_reports_a_recorded_run_and_admits_a_missing_one(tmp_path: Path) -> None:
     """A store without runs says the machine is not known; one with a run names its machine
     and wall time, as recorded."""
-    _copy_store(tmp_path / "store")
+    shutil.copytree(RL_STORE, tmp_path / "store")
     section = provenance_section(read_provenance(tmp_path / "store"))
     assert "machine and the wall-clock time of the commands that wrote it are not known" in section
     machine = {"cpu": "Test CPU", "cpus": 3, "memory_gib": 5.0, "system": "OS", "python": "3.x"}
@@ -99,7 +103,7 @@ def test_page_command_writes_the_page_and_refuses_a_missing_directory(
     error with exit 2 and nothing written."""
     monkeypatch.chdir(ROOT)
     results = tmp_path / "rl"
-    _copy_store(results / "bench_20_steps")
+    shutil.copytree(RL_STORE, results / "bench_20_steps")
     out = tmp_path / "pages" / "rl.md"
     assert main(["page", "rl", "--results", str(results), "--out", str(out)]) == 0
     assert out.read_text() == render_page("rl", results, out)

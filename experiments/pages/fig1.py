@@ -54,7 +54,7 @@ _CAPTION = (
 def _commands(results: Path, page: Path, store: Path) -> str:
     """The commands that wrote the store, the figure and this page."""
     provenance = read_provenance(store)
-    paper = {group for group in FIG1_GROUPS}
+    paper = set(FIG1_GROUPS)
     paper_trials = min(g.trials for g in provenance.groups if (g.planner, g.n_agents) in paper)
     others = [g for g in provenance.groups if (g.planner, g.n_agents) not in paper]
     out, shown_store = display_path(results), display_path(store)
@@ -66,11 +66,11 @@ def _commands(results: Path, page: Path, store: Path) -> str:
         f"infoseek page fig1 --results {out} --out {display_path(page)}",
     ]
     return (
-        "The paper's five groups (panels a and b) were run by `infoseek reproduce fig1`, the "
-        "store's other groups (the baselines, the joint planner, the clairvoyant reference "
-        "and the receding-horizon planner) by `infoseek bench` into the same store (a bench "
-        "resumes: it runs only the trials the store lacks); the figure is redrawn by `infoseek "
-        "plot`, the tables below by `infoseek claims`, this page by `infoseek page`:\n\n"
+        f"The paper's {len(FIG1_GROUPS)} groups (panels a and b) were run by `infoseek "
+        "reproduce fig1`, the store's other groups by `infoseek bench` into the same store (a "
+        "bench resumes: it runs only the trials the store lacks); the figure is redrawn by "
+        "`infoseek plot`, the tables below by `infoseek claims`, this page by `infoseek "
+        "page`:\n\n"
         + code_block("\n".join(lines), "bash")
         + f"\n\n`infoseek verify {shown_store} --trials 2` reruns trials 0-1 of every group "
         "from their seeds and reports any record the installed code does not reproduce."
