@@ -52,15 +52,18 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.special import erf
 
-from infoseek.experiments.bench import LOCALISED_MASS, make_env, time_to_localise
+from infoseek.experiments.analysis import LOCALISED_MASS, Trial, time_to_localise
+from infoseek.experiments.environments import make_env
 
 FloatArray = NDArray[np.float64]
 
 __all__ = [
+    "bound_report",
+    "bound_times",
+    "describe",
+    "headroom",
     "mass_bound",
     "store_mass_bounds",
-    "bound_times",
-    "headroom",
     "time_to_localise_bound",
     "trials_beating_the_bound",
 ]
@@ -115,7 +118,7 @@ def time_to_localise_bound(bounds: FloatArray, threshold: float = LOCALISED_MASS
 
 
 def store_mass_bounds(
-    records: Sequence[Mapping[str, Any]], env_kwargs: Mapping[str, Any], steps: int
+    records: Sequence[Trial], env_kwargs: Mapping[str, Any], steps: int
 ) -> dict[int, FloatArray]:
     """Fleet size -> ``(K, steps + 1)`` bounds of a ``bearings_v0`` store's trials (every trial
     of that fleet size once, in trial order), from the environments' start grid, speed, noise
@@ -126,27 +129,27 @@ def store_mass_bounds(
     """
     truths: dict[int, dict[int, FloatArray]] = {}
     for record in records:
-        truths.setdefault(int(record["n_agents"]), {})[int(record["trial"])] = np.asarray(
-            record["truth"], dtype=np.float64
+        truths.setdefault(record.n_agents, {})[record.trial] = np.asarray(
+            record.truth, dtype=np.float64
         )
     bounds = {}
     for n_agents, by_trial in sorted(truths.items()):
         env = make_env("bearings_v0", n_agents=n_agents, **env_kwargs)
-        base = env.unwrapped
-        if base.sensor.name != "bearing":
-            raise ValueError(f"the bound needs the bearing sensor, got {base.sensor.name!r}")
+        config = env.unwrapped.config
+        env.close()
+        if config.sensor.name != "bearing":
+            raise ValueError(f"the bound needs the bearing sensor, got {config.sensor.name!r}")
         targets = np.stack([by_trial[k] for k in sorted(by_trial)])
         bounds[n_agents] = mass_bound(
             targets,
-            np.asarray(base.start_positions, dtype=np.float64),
-            float(base.vehicle.speed),
-            float(base.dt),
-            float(base.sensor.sigma),
-            float(base.localization_radius),
+            np.asarray(config.start_positions, dtype=np.float64),
+            float(config.vehicle.speed),
+            float(config.dt),
+            float(config.sensor.sigma),
+            float(config.localization_radius),
             steps,
-            float(base.space.volume),
+            float(config.space.volume),
         )
-        env.close()
     return bounds
 
 
@@ -164,17 +167,35 @@ def describe(bounds: Mapping[int, FloatArray]) -> str:
     return "\n".join(lines) if lines else "  bound: no trials"
 
 
-def bound_rows(records: Sequence[Mapping[str, Any]]) -> dict[int, dict[int, int]]:
+def bound_report(
+    records: Sequence[Trial], env_kwargs: Mapping[str, Any], steps: int
+) -> tuple[list[str], dict[int, dict[int, float]]]:
+    """The bound's section of ``infoseek claims`` on a ``bearings_v0`` store: the bound by
+    fleet size, the headroom it leaves pairwise-node and the trials that beat it; and its times
+    to localise (fleet size -> ``{trial: steps}``)."""
+    bounds = store_mass_bounds(records, env_kwargs, steps)
+    lines = [
+        "Clairvoyant bound (infoseek.experiments.bound; Gaussian-posterior assumption):",
+        describe(bounds),
+        "What the bound leaves to gain over pairwise-node (mean time to localise):",
+        headroom(records, bounds, steps),
+        "Trials localised before their own bound (where its assumption fails; r: radius):",
+        trials_beating_the_bound(records, bounds, env_kwargs, steps),
+    ]
+    return lines, bound_times(records, bounds)
+
+
+def bound_rows(records: Sequence[Trial]) -> dict[int, dict[int, int]]:
     """Fleet size -> ``{trial: its row in that fleet size's}`` :func:`store_mass_bounds` matrix
     (every trial of a fleet size once, in trial order)."""
     trials: dict[int, set[int]] = {}
     for record in records:
-        trials.setdefault(int(record["n_agents"]), set()).add(int(record["trial"]))
+        trials.setdefault(record.n_agents, set()).add(record.trial)
     return {n: {trial: row for row, trial in enumerate(sorted(t))} for n, t in trials.items()}
 
 
 def bound_times(
-    records: Sequence[Mapping[str, Any]], bounds: Mapping[int, FloatArray]
+    records: Sequence[Trial], bounds: Mapping[int, FloatArray]
 ) -> dict[int, dict[int, float]]:
     """Fleet size -> ``{trial: the bound's time to localise}``."""
     times = {}
@@ -185,7 +206,7 @@ def bound_times(
 
 
 def headroom(
-    records: Sequence[Mapping[str, Any]],
+    records: Sequence[Trial],
     bounds: Mapping[int, FloatArray],
     steps: int,
     reference: str = "pairwise",
@@ -196,10 +217,10 @@ def headroom(
     limits = bound_times(records, bounds)
     times: dict[int, list[tuple[float, float]]] = {}
     for record in records:
-        if record["planner"] == reference:
-            n_agents, ttl = int(record["n_agents"]), time_to_localise(record["mass_agent0"])
+        if record.planner == reference:
+            n_agents, ttl = record.n_agents, time_to_localise(record.mass_agent0)
             times.setdefault(n_agents, []).append(
-                (steps if ttl is None else ttl, limits[n_agents][int(record["trial"])])
+                (steps if ttl is None else ttl, limits[n_agents][record.trial])
             )
     lines = []
     for n_agents, pairs in sorted(times.items()):
@@ -212,7 +233,7 @@ def headroom(
 
 
 def trials_beating_the_bound(
-    records: Sequence[Mapping[str, Any]],
+    records: Sequence[Trial],
     bounds: Mapping[int, FloatArray],
     env_kwargs: Mapping[str, Any],
     steps: int,
@@ -231,23 +252,18 @@ def trials_beating_the_bound(
         env_kwargs: The store's environment options (domain and localisation radius).
         steps: Episode length (never-localised trials are censored there).
     """
-    limits, domains = bound_times(records, bounds), {}
-    for n_agents in limits:
-        env = make_env("bearings_v0", n_agents=n_agents, **env_kwargs)
-        base = env.unwrapped
-        domains[n_agents] = (base.space.low_array[:2], base.space.high_array[:2])
-        radius = float(base.localization_radius)
-        env.close()
+    limits = bound_times(records, bounds)
+    domains, radius = _domains(sorted(limits), env_kwargs)
     groups: dict[tuple[str, int], list[tuple[float, bool, bool]]] = {}
     for record in records:
-        n_agents = int(record["n_agents"])
-        low, high = domains[n_agents]
-        ttl = time_to_localise(record["mass_agent0"])
-        truth = np.asarray(record["truth"], dtype=np.float64)[:2]
+        low, high = domains[record.n_agents]
+        ttl = time_to_localise(record.mass_agent0)
+        truth = np.asarray(record.truth, dtype=np.float64)[:2]
         edge = float(np.min(np.concatenate([truth - low, high - truth])))
-        ahead = 0.0 if ttl is None else max(limits[n_agents][int(record["trial"])] - ttl, 0.0)
-        wrong = ahead > 0 and float(record["error_agent0"][ttl]) > radius
-        groups.setdefault((str(record["planner"]), n_agents), []).append(
+        limit = limits[record.n_agents][record.trial]
+        ahead = 0.0 if ttl is None else max(limit - ttl, 0.0)
+        wrong = ahead > 0 and float(_at(record.error_agent0, ttl)) > radius
+        groups.setdefault((record.planner, record.n_agents), []).append(
             (ahead, edge <= radius, wrong)
         )
     lines = []
@@ -261,3 +277,26 @@ def trials_beating_the_bound(
             f"with the estimate more than r from the target"
         )
     return "\n".join(lines)
+
+
+def _at(series: Any, step: int | None) -> float:
+    """``series[step]`` (a series the store lacks, or no step, reads as NaN)."""
+    if series is None or step is None or series[step] is None:
+        return math.nan
+    return float(series[step])
+
+
+def _domains(
+    fleets: Sequence[int], env_kwargs: Mapping[str, Any]
+) -> tuple[dict[int, tuple[FloatArray, FloatArray]], float]:
+    """Fleet size -> the domain's ``(low, high)`` corners, and the localisation radius, of the
+    ``bearings_v0`` environments of a store."""
+    domains = {}
+    radius = math.nan
+    for n_agents in fleets:
+        env = make_env("bearings_v0", n_agents=n_agents, **env_kwargs)
+        config = env.unwrapped.config
+        env.close()
+        domains[n_agents] = (config.space.low_array[:2], config.space.high_array[:2])
+        radius = float(config.localization_radius)
+    return domains, radius

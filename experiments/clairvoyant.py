@@ -50,14 +50,15 @@ class ClairvoyantFisherReference:
         if isinstance(lookahead, bool) or not isinstance(lookahead, int) or lookahead < 1:
             raise ValueError(f"lookahead must be an int >= 1, got {lookahead!r}")
         self.env = env.unwrapped
-        sigma = getattr(self.env.sensor, "sigma", None)
-        if sigma is None or not hasattr(self.env.vehicle, "max_turn_rate"):
+        self.config = self.env.config
+        sigma = getattr(self.config.sensor, "sigma", None)
+        if sigma is None or not hasattr(self.config.vehicle, "max_turn_rate"):
             raise TypeError("env: the clairvoyant reference needs bearing sensors on airplanes")
         self.inverse_variance = 1.0 / float(sigma) ** 2
         self.lookahead = lookahead
-        turn = float(self.env.vehicle.max_turn_rate)
+        turn = float(self.config.vehicle.max_turn_rate)
         self.turns = np.linspace(-turn, turn, CANDIDATE_TURNS)[:, None]
-        width = self.env.space.high_array[:2] - self.env.space.low_array[:2]
+        width = self.config.space.high_array[:2] - self.config.space.low_array[:2]
         self.prior = np.diag(12.0 / width**2)
         self.information = self.prior.copy()
 
@@ -94,7 +95,7 @@ class ClairvoyantFisherReference:
         current = np.broadcast_to(state, (self.turns.shape[0], state.size))
         points = []
         for _ in range(self.lookahead):
-            current = self.env.vehicle.step(current, self.turns, self.env.dt)
+            current = self.config.vehicle.step(current, self.turns, self.config.dt)
             points.append(current[:, :2])
         return np.stack(points, axis=1)
 

@@ -12,11 +12,10 @@ Subcommands:
   (:mod:`infoseek.experiments.bench`, :mod:`infoseek.experiments.store`), then a summary table.
 * ``infoseek plot DIR``: the paper's Fig. 1 from a results store
   (:mod:`infoseek.experiments.plot`).
-* ``infoseek reproduce fig1|fig2|beacon|ablation``: the trials and plots of the paper's figures
-  with the paper's settings, the beacon Monte Carlo study (:mod:`infoseek.experiments.reproduce`)
-  and the Claim A ablation (:mod:`infoseek.experiments.ablation`).
+* ``infoseek reproduce STUDY``: the trials and figures of a study
+  (:mod:`infoseek.experiments.reproduce`, the studies in :mod:`infoseek.experiments.studies`).
 * ``infoseek claims DIR``: paired statistical tests of the paper's Fig. 1 claims on stored
-  trials (:mod:`infoseek.experiments.claims`).
+  trials (:mod:`infoseek.experiments.studies.claims`).
 * ``infoseek verify DIR``: rerun stored trials from their seeds and report the records the
   installed code does not reproduce (:mod:`infoseek.experiments.verify`); ``--integrity``
   checks every file of the store against its checksums instead
@@ -36,7 +35,6 @@ stored is changed. Every command runs with one BLAS/OpenMP/torch thread unless
 from __future__ import annotations
 
 import argparse
-import os
 import signal
 import sys
 import warnings
@@ -53,16 +51,22 @@ from infoseek.experiments.arguments import (
     environment_kwargs,
     key_value,
 )
-from infoseek.experiments.claims import add_claims_arguments, run_claims
+from infoseek.experiments.commands import (
+    EXIT_INTERRUPTED,
+    add_execution_arguments,
+    execution,
+    run_plan,
+)
 from infoseek.experiments.demo import add_demo_arguments, run_demo
 from infoseek.experiments.policies import PLANNER_NAMES
+from infoseek.experiments.reproduce import add_reproduce_arguments, run_reproduce_command
 from infoseek.experiments.store import StoreWarning
+from infoseek.experiments.studies.claims import add_claims_arguments, run_claims
 from infoseek.experiments.threads import limited_threads
 from infoseek.experiments.timing import add_timing_arguments, run_timing
 from infoseek.experiments.train import add_train_arguments, run_train
 
-#: Exit code of an interrupted (Ctrl-C) run: the stored trials are kept, a rerun resumes.
-EXIT_INTERRUPTED = 130
+__all__ = ["EXIT_INTERRUPTED", "build_parser", "main", "stop_on_signals"]
 
 
 def _int_list(text: str) -> list[int]:
@@ -73,28 +77,6 @@ def _int_list(text: str) -> list[int]:
         raise argparse.ArgumentTypeError(
             f"expected integers like 4 or 2,3,4, got {text!r}"
         ) from None
-
-
-def _default_workers() -> int:
-    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1)
-
-
-def _add_execution_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--workers", type=int, default=None, help="parallel workers (default: the CPUs available)"
-    )
-    parser.add_argument(
-        "--backend",
-        choices=("serial", "process", "ray"),
-        default=None,
-        help="where trials run (default: serial for 1 worker, else process)",
-    )
-    parser.add_argument(
-        "--address", default=None, help="address of an existing Ray cluster (--backend ray)"
-    )
-    parser.add_argument(
-        "--no-progress", action="store_true", help="no progress bar (default: on a terminal)"
-    )
 
 
 def add_bench_arguments(parser: argparse.ArgumentParser) -> None:
@@ -134,28 +116,12 @@ def add_bench_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="results directory (default infoseek-out/bench-ENV-seedSEED)",
     )
-    _add_execution_arguments(parser)
-
-
-def _execution(args: argparse.Namespace) -> tuple[str, int]:
-    workers = args.workers if args.workers is not None else _default_workers()
-    if workers < 1:
-        raise ValueError(f"--workers must be >= 1, got {workers}")
-    backend = args.backend or ("serial" if workers == 1 else "process")
-    if args.address and backend != "ray":
-        raise ValueError("--address only applies to --backend ray")
-    return backend, workers
+    add_execution_arguments(parser)
 
 
 def run_bench_command(args: argparse.Namespace) -> int:
     """``infoseek bench``: run the missing trials, store them, print the summary."""
-    from infoseek.experiments.bench import (
-        BenchPlan,
-        check_env_id,
-        check_planner,
-        check_policy_path,
-        default_steps,
-    )
+    from infoseek.experiments.bench import plan_bench
 
     if args.trials is not None and args.trials < 1:
         raise ValueError(f"--trials must be >= 1, got {args.trials}")
@@ -169,70 +135,19 @@ def run_bench_command(args: argparse.Namespace) -> int:
         else Path("infoseek-out") / f"bench-{args.env}-seed{args.seed}"
     )
     check_writable_directory(out)
-    backend, workers = _execution(args)
-    check_env_id(args.env)
-    planners = list(dict.fromkeys(args.planner or ([] if args.policy else ["pairwise"])))
-    for planner in planners:
-        check_planner(planner)
-    planners += [check_policy_path(path, out) for path in args.policy or []]
-    agents = sorted({n for group in (args.agents or [[4]]) for n in group})
-    if any(n < 1 for n in agents):
-        raise ValueError(f"--agents must be >= 1, got {agents}")
-    steps = args.steps if args.steps is not None else default_steps(args.env, env_kwargs)
-    plan = BenchPlan(
-        env=args.env,
-        env_kwargs=env_kwargs,
-        steps=steps,
-        seed=args.seed,
-        groups=[(planner, n) for planner in planners for n in agents],
+    execution(args)
+    plan = plan_bench(
+        args.env,
+        env_kwargs,
+        planners=args.planner or ([] if args.policy else ["pairwise"]),
+        policies=args.policy or [],
+        agents=[n for group in (args.agents or [[4]]) for n in group],
         trials=args.trials,
+        steps=args.steps,
+        seed=args.seed,
+        out=out,
     )
-    return _run_and_summarise(plan, out, backend, workers, args)
-
-
-def _run_and_summarise(
-    plan: Any, out: Path, backend: str, workers: int, args: argparse.Namespace
-) -> int:
-    """Run ``plan`` into the store ``out`` and print the summary; returns the exit code."""
-    from infoseek.experiments.bench import (
-        TrialFailedError,
-        format_summary,
-        run_bench,
-        summarise,
-    )
-
-    total = len(plan.groups) * plan.trials
-    where = backend if backend == "serial" else f"{backend} ({workers} workers)"
-    print(
-        f"bench {plan.env}: {len(plan.groups)} group(s) x {plan.trials} trials, {plan.steps} steps,"
-        f" seed {plan.seed}, backend {where} -> {out}",
-        flush=True,
-    )
-    try:
-        result = run_bench(
-            plan,
-            out,
-            backend=backend,
-            workers=workers,
-            address=args.address,
-            progress=False if args.no_progress else None,
-        )
-    except KeyboardInterrupt:
-        print(
-            f"infoseek {args.command}: interrupted; finished trials are stored in {out}, "
-            "rerun the same command to resume",
-            file=sys.stderr,
-        )
-        return EXIT_INTERRUPTED
-    except TrialFailedError as error:
-        print(
-            f"infoseek {args.command}: error: {error}; earlier trials are stored in {out}",
-            file=sys.stderr,
-        )
-        return 1
-    print(f"{result.ran} trial(s) run, {result.skipped} of {total} already stored")
-    print(format_summary(summarise(result.records, plan.steps), plan.steps))
-    return 0
+    return run_plan(plan, out, args)[0]
 
 
 def add_plot_arguments(parser: argparse.ArgumentParser) -> None:
@@ -252,106 +167,6 @@ def run_plot_command(args: argparse.Namespace) -> int:
     check_writable_file(Path(f"{stem}.png"), "--out")
     paths = plot_fig1_from_store(args.directory, args.out)
     for path in paths:
-        print(f"wrote {path}")
-    return 0
-
-
-def _run_ablation(out: Path, backend: str, workers: int, args: argparse.Namespace) -> int:
-    """``infoseek reproduce ablation``: every setting's store, then the table and figure."""
-    from infoseek.experiments import ablation
-
-    if args.steps is not None or args.particles is not None:
-        raise ValueError("reproduce ablation: --steps/--particles are fixed by its settings")
-    trials = args.trials if args.trials is not None else ablation.DEFAULT_TRIALS
-    plans = list(ablation.ablation_plans(trials=trials, seed=args.seed))
-    for _, plan in plans:
-        plan.validate()  # every setting before any store is written
-    for name, plan in plans:
-        code = _run_and_summarise(plan, out / name / "store", backend, workers, args)
-        if code != 0:
-            return code
-    rows = ablation.ablation_rows(out)
-    print(ablation.format_table(rows))
-    for path in ablation.write_results(out, rows):
-        print(f"wrote {path}")
-    from infoseek.experiments import decisions
-
-    decision_rows = decisions.read_decisions(out)
-    if decision_rows is None:
-        print("decisions: single-node's choices along pairwise-node episodes", flush=True)
-        decision_rows = decisions.decision_rows(seed=args.seed)
-        for path in decisions.write_decisions(out, decision_rows):
-            print(f"wrote {path}")
-    print(decisions.format_decisions(decision_rows))
-    return 0
-
-
-def add_reproduce_arguments(parser: argparse.ArgumentParser) -> None:
-    """Options of ``infoseek reproduce``."""
-    parser.add_argument(
-        "figure",
-        choices=("fig1", "fig2", "beacon", "ablation"),
-        help="which figure: the paper's fig1 or fig2, the beacon Monte Carlo study or the "
-        "Claim A ablation",
-    )
-    parser.add_argument(
-        "--trials",
-        type=int,
-        default=None,
-        help="trials per curve (fig1: default 1000; beacon: default 500; ablation: 100)",
-    )
-    parser.add_argument(
-        "--steps", type=int, default=None, help="steps per trial (default: the env's episode)"
-    )
-    parser.add_argument(
-        "--particles", type=int, default=None, help="particles per belief (default: env's 2000)"
-    )
-    parser.add_argument("--seed", type=int, default=0, help="root seed")
-    parser.add_argument(
-        "--out", type=Path, default=None, help="output directory (default infoseek-out/FIGURE)"
-    )
-    _add_execution_arguments(parser)
-
-
-def run_reproduce_command(args: argparse.Namespace) -> int:
-    """``infoseek reproduce fig1|fig2|beacon|ablation``."""
-    from infoseek.experiments import reproduce
-
-    if args.trials is not None and args.trials < 1:
-        raise ValueError(f"--trials must be >= 1, got {args.trials}")
-    if args.steps is not None and args.steps < 1:
-        raise ValueError(f"--steps must be >= 1, got {args.steps}")
-    if args.particles is not None and args.particles < 1:
-        raise ValueError(f"--particles must be >= 1, got {args.particles}")
-    check_seed(args.seed)
-    out = args.out if args.out is not None else Path("infoseek-out") / args.figure
-    check_writable_directory(out)
-    if args.figure == "fig2":
-        if args.backend is not None or args.workers is not None or args.address:
-            print("reproduce fig2: one episode; --backend/--workers/--address are ignored")
-        result = reproduce.reproduce_fig2(
-            out, steps=args.steps, particles=args.particles, seed=args.seed
-        )
-        x, y, psi = result.truth
-        print(f"fig2: episode seed {result.env_seed}; beacon at ({x:.2f}, {y:.2f}), psi {psi:.4f}")
-        for step, mass in sorted(result.snapshot_masses.items()):
-            print(f"  t = {step:>2}: posterior mass within 1 unit (agent 0) {mass:.3f}")
-        for path in result.paths:
-            print(f"wrote {path}")
-        return 0
-    backend, workers = _execution(args)
-    if args.figure == "ablation":
-        return _run_ablation(out, backend, workers, args)
-    make_plan = reproduce.beacon_plan if args.figure == "beacon" else reproduce.fig1_plan
-    trials = args.trials if args.trials is not None else (500 if args.figure == "beacon" else 1000)
-    plan = make_plan(trials=trials, steps=args.steps, particles=args.particles, seed=args.seed)
-    store = out / "store"
-    code = _run_and_summarise(plan, store, backend, workers, args)
-    if code != 0:
-        return code
-    from infoseek.experiments.plot import plot_fig1_from_store
-
-    for path in plot_fig1_from_store(store, out / args.figure):
         print(f"wrote {path}")
     return 0
 
@@ -378,7 +193,7 @@ def add_verify_arguments(parser: argparse.ArgumentParser) -> None:
         help="check every file of the store against its checksums instead of rerunning "
         "trials (exit status 2 if any is damaged)",
     )
-    _add_execution_arguments(parser)
+    add_execution_arguments(parser)
 
 
 def _group(text: str) -> tuple[str, int]:
@@ -400,7 +215,7 @@ def run_verify_command(args: argparse.Namespace) -> int:
                 "trials to rerun: give one or the other"
             )
         return _check_integrity(args.directory)
-    backend, workers = _execution(args)
+    backend, workers = execution(args)
     groups = None if args.group is None else [_group(text) for text in args.group]
     result = verify_store(
         args.directory,
@@ -524,7 +339,7 @@ def build_parser() -> argparse.ArgumentParser:
         ),
         (
             "reproduce",
-            "run and plot the paper's Fig. 1 or Fig. 2 with its settings",
+            "run a study (the paper's Fig. 1 or 2, beacon, ablation) and draw its figures",
             add_reproduce_arguments,
             run_reproduce_command,
         ),

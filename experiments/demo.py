@@ -22,8 +22,9 @@ import numpy as np
 
 from infoseek.envs import registry
 from infoseek.experiments.arguments import check_seed, check_writable_directory
-from infoseek.experiments.bench import make_env, trial_progress_bar
+from infoseek.experiments.environments import make_env
 from infoseek.experiments.policies import PLANNER_NAMES, make_policy
+from infoseek.experiments.progress import progress_bar
 
 
 def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
@@ -73,15 +74,15 @@ def run_demo(args: argparse.Namespace) -> int:
     stem = f"demo-{args.env}-{args.planner}-{args.agents}agents-seed{args.seed}"
 
     frames = [env.render()]
-    radius = env.unwrapped.localization_radius
+    radius = env.unwrapped.config.localization_radius
     first = env.possible_agents[0]
     print(
         f"{args.env}: {args.agents} x {args.planner}, {args.particles} particles, seed {args.seed}"
     )
     mass_header = f"mass<={radius:g}"
     print(f"{'step':>4} {mass_header:>9} {'error':>8} {'entropy':>8} {'plan ms':>8}", flush=True)
-    bar = trial_progress_bar(
-        int(env.unwrapped.max_cycles), "demo", None if args.progress else False, unit="step"
+    bar = progress_bar(
+        int(env.unwrapped.config.max_cycles), "demo", None if args.progress else False, unit="step"
     )
     interrupted = False
     try:

@@ -4,7 +4,7 @@ Fig. 1 of Hoffmann, Waslander & Tomlin (2006) shows, against the time step ``t``
 the quartile bars over trials of the probability that the true target is within 1 unit of the
 MMSE estimate, i.e. the posterior mass ``m_t = sum_j w_j [||x_j - xhat|| <= r]`` of the belief
 within the localisation radius ``r`` of its MMSE position estimate ``xhat`` (eq. 12). The store
-records it per step for agent 0's belief (``mass_agent0``, :mod:`infoseek.experiments.bench`).
+records it per step for agent 0's belief (``mass_agent0``, :mod:`infoseek.experiments.record`).
 
 Panels, each drawn only if the store has its data:
 
@@ -33,8 +33,10 @@ from typing import Any
 
 import numpy as np
 
+from infoseek.experiments.analysis import Trial, mass_curves, paired_masses
 from infoseek.experiments.clairvoyant import CLAIRVOYANT_LABEL
-from infoseek.experiments.store import read_manifest, read_records
+from infoseek.experiments.columns import read_trials
+from infoseek.experiments.store import read_manifest
 
 PAPER_FLEET_SIZES: tuple[int, ...] = (2, 3, 4, 10)
 #: Legend entry of the quartile bars.
@@ -43,66 +45,6 @@ IQR_LABEL = "bars: 25th-75th percentile of the trials\n(the mean may lie outside
 SE_LABEL = "band: +- 1 standard error of the paired mean"
 #: Planners of panel (a) that get quartile bars.
 PANEL_A_BARS = ("single", "pairwise")
-
-
-def mass_curves(
-    records: Sequence[Mapping[str, Any]], field: str = "mass_agent0"
-) -> dict[tuple[str, int], np.ndarray]:
-    """Per-group matrices of a per-step series.
-
-    Args:
-        records: Trial records.
-        field: The per-step series to collect.
-
-    Returns:
-        ``(planner, n_agents) -> (n_trials, T + 1)`` array, shorter trials padded with their
-        last value (``None`` entries become NaN).
-    """
-    grouped: dict[tuple[str, int], list[Sequence[float | None]]] = {}
-    for record in records:
-        grouped.setdefault((record["planner"], int(record["n_agents"])), []).append(record[field])
-    curves = {}
-    for key, rows in grouped.items():
-        length = max(len(row) for row in rows)
-        curves[key] = np.array([padded_series(row, length) for row in rows])
-    return curves
-
-
-def padded_series(values: Sequence[float | None], length: int) -> np.ndarray:
-    """``(length,)`` float array of a trial's per-step series: ``None`` becomes NaN, an episode
-    that ended early is padded with its last value, a longer one cut."""
-    series = np.array([np.nan if v is None else v for v in values], dtype=float)
-    if series.size < length:
-        series = np.concatenate([series, np.full(length - series.size, series[-1])])
-    return series[:length]
-
-
-def masses_by_trial(
-    records: Sequence[Mapping[str, Any]], planner: str, n_agents: int, length: int
-) -> dict[int, np.ndarray]:
-    """``{trial: (length,) mass series of agent 0}`` of one group (see
-    :func:`padded_series`)."""
-    return {
-        int(record["trial"]): padded_series(record["mass_agent0"], length)
-        for record in records
-        if record["planner"] == planner and int(record["n_agents"]) == n_agents
-    }
-
-
-def paired_masses(
-    records: Sequence[Mapping[str, Any]], base: str, other: str, n_agents: int, steps: int
-) -> tuple[list[int], np.ndarray, np.ndarray]:
-    """``(trials, base masses, other masses)``: the trials both groups hold, ascending, and their
-    ``(trials, steps + 1)`` mass series of agent 0."""
-    a = masses_by_trial(records, base, n_agents, steps + 1)
-    b = masses_by_trial(records, other, n_agents, steps + 1)
-    common = sorted(set(a) & set(b))
-    shape = (len(common), steps + 1)
-    return (
-        common,
-        np.array([a[k] for k in common]).reshape(shape),
-        np.array([b[k] for k in common]).reshape(shape),
-    )
 
 
 def _draw_group(
@@ -142,11 +84,11 @@ def _draw_group(
 
 
 def _draw_paired_differences(
-    axes: Any, records: Sequence[Mapping[str, Any]], sizes: Sequence[int], base: str, other: str
+    axes: Any, records: Sequence[Trial], sizes: Sequence[int], base: str, other: str
 ) -> None:
     """Mean paired mass difference ``other - base`` per step (one line per fleet size, over
     the trials both groups hold) with a band of one standard error either side."""
-    steps = max(len(r["mass_agent0"]) for r in records) - 1
+    steps = max(len(r.mass_agent0) for r in records) - 1
     for position, n_agents in enumerate(sizes):
         trials, a, b = paired_masses(records, base, other, n_agents, steps)
         difference = b - a
@@ -251,7 +193,7 @@ def _draw_bounds(
 
 
 def plot_fig1(
-    records: Sequence[Mapping[str, Any]],
+    records: Sequence[Trial],
     out_stem: str | os.PathLike[str],
     title: str = "",
     bounds: Mapping[int, np.ndarray] | None = None,
@@ -281,7 +223,7 @@ def plot_fig1(
 
 
 def fig1_figure(
-    records: Sequence[Mapping[str, Any]],
+    records: Sequence[Trial],
     title: str = "",
     bounds: Mapping[int, np.ndarray] | None = None,
 ) -> Any:
@@ -291,7 +233,7 @@ def fig1_figure(
     if not records:
         raise ValueError("nothing to plot: the results store has no finished trials")
     curves = mass_curves(records)
-    radius = float(records[0].get("radius", 1.0))
+    radius = 1.0 if records[0].radius is None else float(records[0].radius)
     panels = fig1_panels(list(curves))
     figure = Figure(figsize=(6.6 * len(panels), 6.0), layout="constrained")
     for index, (panel, keys) in enumerate(panels):
@@ -328,7 +270,7 @@ def plot_fig1_from_store(
 ) -> list[Path]:
     """Fig. 1 of the results store in ``directory`` (default output ``directory/fig1``)."""
     manifest = read_manifest(directory)
-    records = read_records(directory)
+    records = read_trials(directory)
     if not records:
         raise ValueError(f"nothing to plot: {directory} has no finished trials yet")
     config = manifest.get("config", {})

@@ -1,261 +1,130 @@
-"""The paper's figures (``infoseek reproduce fig1|fig2``): its stated settings, and ours where it
-states none.
+"""``infoseek reproduce STUDY``: run a study's trials with its settings, then draw its figures.
 
-The paper fixes the domain (a 40 x 40 square), the uniform prior, the vehicle types (airplanes
-with fixed speed and a limited turn rate starting close together; quadrotors with bounded
-acceleration and speed), the sensor models (additive Gaussian bearing noise; the beacon's field
-direction with Gaussian noise), one observation per vehicle and step shared by all, 1000 trials
-per Fig. 1 curve, the localisation radius 1, the fleet sizes 2, 3, 4, 10 and the Fig. 2 beacon
-orientation ``pi/4`` and snapshot times 1, 2, 5, 20. Everything else is our choice, the
-environments' defaults: bearing noise ``sigma = 0.1`` rad, airplane speed 1 unit/s and turn
-rate <= 0.5 rad/s, the start grid (spacing 2 around ``(5, 5)``), ``dt = 1``, 2000 particles
-per vehicle, roughening and progressive correction, the episode lengths (60 steps for Fig. 1,
-20 for Fig. 2) and the beacon's field strength and noise. README ("Fig. 1", the table of
-settings) lists both.
+Part of the command line's top layer: each study lives in :mod:`infoseek.experiments.studies`
+(its plan, tables and figures); this module runs it. The studies:
 
-Fig. 1 (section IV.A, bearings-only search, ``bearings_v0``): Monte Carlo trials (1000 per
-curve in the paper) of the single- and pairwise-node planners with ``n_v = 4`` airplanes (panel
-a) and of the pairwise-node planner with 2, 3, 4 and 10 airplanes (panel b), stored in
-``OUT/store`` by the resumable benchmark (:mod:`infoseek.experiments.bench`) and drawn by
-:mod:`infoseek.experiments.plot` as ``OUT/fig1.png`` and ``OUT/fig1.svg``. The pairwise
-``n_v = 4`` curve is shared by both panels. Other settings are the environment's defaults
-(2000 particles per vehicle, 40 x 40 domain, uniform prior, episode length ``max_cycles``).
+* ``fig1``: the paper's Fig. 1 (:mod:`~infoseek.experiments.studies.fig1`);
+* ``fig2``: the paper's Fig. 2, one episode (:mod:`~infoseek.experiments.studies.fig2`);
+* ``beacon``: the beacon Monte Carlo study (:mod:`~infoseek.experiments.studies.beacon`);
+* ``ablation``: the Claim A ablation with the decisions study
+  (:mod:`~infoseek.experiments.studies.ablation`, :mod:`~infoseek.experiments.studies.decisions`).
 
-Beacon Monte Carlo (``infoseek reproduce beacon``; not in the paper, which shows one beacon
-episode): Fig. 1-style paired trials on ``beacon_v0`` (500 per curve by default) of the
-pairwise-node, single-node, random and lawnmower policies with ``n_v = 4`` quadrotors and of the
-pairwise-node planner with 2 and 3, stored in ``OUT/store`` and drawn as ``OUT/beacon.png`` /
-``.svg``; ``infoseek claims OUT/store`` tests whether pairwise beats single (Claim A) and
-whether larger fleets localise faster (Claim B). Settings are ``beacon_v0``'s defaults.
-
-Fig. 2 (section IV.B, rescue-beacon search, ``beacon_v0``): one episode of four quadrotors with
-the pairwise-node planner; the environment's ``rgb_array`` frames (agent 0's particles, the
-MMSE estimate, the vehicle trails and the true beacon) after steps 1, 2, 5 and 20 form a 2 x 2
-panel ``OUT/fig2.png``. The paper's beacon has true orientation ``pi/4`` and an unstated
-position: the episode's seed is the first of a deterministic sequence of candidate seeds
-(derived from ``--seed``) whose drawn beacon position is at least
-:data:`FIG2_MIN_START_DISTANCE` units from the starting vehicles, and the orientation is then
-set to ``pi/4`` through ``reset(options={"target": ...})``.
+Trial studies resume: a rerun with every trial stored only redraws.
 """
 
 from __future__ import annotations
 
-import math
-import os
-from dataclasses import dataclass
+import argparse
 from pathlib import Path
-from typing import Any
 
-import numpy as np
-from threadpoolctl import threadpool_limits
+from infoseek.experiments.arguments import check_seed, check_writable_directory
+from infoseek.experiments.commands import add_execution_arguments, execution, run_plan
+from infoseek.experiments.plot import plot_fig1_from_store
+from infoseek.experiments.studies import ablation, decisions, fig2
+from infoseek.experiments.studies.beacon import beacon_plan
+from infoseek.experiments.studies.fig1 import fig1_plan
 
-from infoseek.envs.search_env import MIN_PARTICLES
-from infoseek.experiments.bench import BenchPlan, default_steps, derive_seed, make_env
-from infoseek.experiments.policies import make_policy
+__all__ = ["STUDIES", "add_reproduce_arguments", "fig1_plan", "run_reproduce_command"]
 
-FIG1_ENV = "bearings_v0"
-FIG1_GROUPS: tuple[tuple[str, int], ...] = (
-    ("single", 4),
-    ("pairwise", 4),
-    ("pairwise", 2),
-    ("pairwise", 3),
-    ("pairwise", 10),
-)
-BEACON_ENV = "beacon_v0"
-BEACON_GROUPS: tuple[tuple[str, int], ...] = (
-    ("pairwise", 4),
-    ("single", 4),
-    ("random", 4),
-    ("lawnmower", 4),
-    ("pairwise", 2),
-    ("pairwise", 3),
-)
-FIG2_ENV = "beacon_v0"
-FIG2_AGENTS = 4
-FIG2_PLANNER = "pairwise"
-FIG2_SNAPSHOT_STEPS: tuple[int, ...] = (1, 2, 5, 20)
-FIG2_ORIENTATION = math.pi / 4
-FIG2_MIN_START_DISTANCE = 10.0
-_FIG2_MAX_CANDIDATES = 20_000
+#: The studies ``infoseek reproduce`` runs.
+STUDIES = ("fig1", "fig2", "beacon", "ablation")
 
 
-def fig1_plan(
-    trials: int = 1000, steps: int | None = None, particles: int | None = None, seed: int = 0
-) -> BenchPlan:
-    """The benchmark plan of Fig. 1 (``steps`` default: the environment's episode length)."""
-    return _plan(FIG1_ENV, FIG1_GROUPS, trials, steps, particles, seed)
-
-
-def beacon_plan(
-    trials: int = 500, steps: int | None = None, particles: int | None = None, seed: int = 0
-) -> BenchPlan:
-    """The benchmark plan of the beacon Monte Carlo study (module docstring)."""
-    return _plan(BEACON_ENV, BEACON_GROUPS, trials, steps, particles, seed)
-
-
-def _plan(
-    env: str,
-    groups: tuple[tuple[str, int], ...],
-    trials: int,
-    steps: int | None,
-    particles: int | None,
-    seed: int,
-) -> BenchPlan:
-    env_kwargs: dict[str, Any] = {}
-    if particles is not None:
-        env_kwargs["n_particles"] = particles
-    if steps is None:
-        steps = default_steps(env, env_kwargs)
-    return BenchPlan(
-        env=env, env_kwargs=env_kwargs, steps=steps, seed=seed, groups=list(groups), trials=trials
+def add_reproduce_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``infoseek reproduce``."""
+    parser.add_argument(
+        "figure",
+        choices=STUDIES,
+        help="which study: the paper's fig1 or fig2, the beacon Monte Carlo study or the "
+        "Claim A ablation",
     )
-
-
-def fig2_scenario(seed: int = 0) -> tuple[int, np.ndarray]:
-    """The Fig. 2 episode: its seed and its true beacon ``(x, y, pi/4)``.
-
-    Candidates are ``derive_seed("fig2", seed, i)`` for ``i = 0, 1, ...``; the first whose
-    drawn beacon position is at least :data:`FIG2_MIN_START_DISTANCE` from every starting
-    vehicle is taken (so the search has somewhere to go, as in the paper's figure), with the
-    orientation replaced by the paper's ``pi/4``. The drawn target depends only on the seed,
-    so the search uses environments with the fewest particles allowed.
-
-    Raises:
-        ValueError: No candidate within the first 20000.
-    """
-    probe = make_env(FIG2_ENV, n_agents=FIG2_AGENTS, n_particles=MIN_PARTICLES)
-    try:
-        for index in range(_FIG2_MAX_CANDIDATES):
-            candidate = derive_seed("fig2", seed, index)
-            probe.reset(seed=candidate)
-            target = probe.unwrapped.true_target()
-            starts = np.asarray(probe.unwrapped.vehicle_states)[:, :2]
-            distance = float(np.min(np.hypot(*(starts - target[:2]).T)))
-            if distance >= FIG2_MIN_START_DISTANCE:
-                return candidate, np.array([target[0], target[1], FIG2_ORIENTATION])
-    finally:
-        probe.close()
-    raise ValueError(f"no seed puts the beacon {FIG2_MIN_START_DISTANCE} units from the start")
-
-
-@dataclass(frozen=True)
-class Fig2Result:
-    """What :func:`reproduce_fig2` produced.
-
-    Attributes:
-        paths: The written files.
-        env_seed: Seed of the episode.
-        truth: ``(3,)`` true beacon state ``(x, y, psi)``.
-        snapshot_masses: Step -> agent 0's posterior mass within the localisation radius.
-    """
-
-    paths: list[Path]
-    env_seed: int
-    truth: np.ndarray
-    snapshot_masses: dict[int, float]
-
-
-def reproduce_fig2(
-    out: str | os.PathLike[str],
-    steps: int | None = None,
-    particles: int | None = None,
-    seed: int = 0,
-) -> Fig2Result:
-    """Run the Fig. 2 episode and write ``out/fig2.png``.
-
-    Args:
-        out: Output directory.
-        steps: Episode length (default 20, the last snapshot); snapshots beyond it are taken
-            at the last step instead.
-        particles: Particles per belief (default: the environment's 2000).
-        seed: Root seed (selects the episode, see :func:`fig2_scenario`).
-
-    Returns:
-        The written paths, the episode's seed and true beacon, and the snapshot masses.
-    """
-
-    steps = max(FIG2_SNAPSHOT_STEPS) if steps is None else steps
-    if steps < 1:
-        raise ValueError(f"--steps must be >= 1, got {steps}")
-    snapshots = sorted({min(s, steps) for s in FIG2_SNAPSHOT_STEPS})
-    kwargs: dict[str, Any] = {"n_agents": FIG2_AGENTS, "max_cycles": steps}
-    if particles is not None:
-        kwargs["n_particles"] = particles
-    env_seed, target = fig2_scenario(seed)
-    env = make_env(FIG2_ENV, render_mode="rgb_array", **kwargs)
-    frames: dict[int, np.ndarray] = {}
-    masses: dict[int, float] = {}
-    # one BLAS thread, as every stored trial: the episode's decisions depend on the last bits
-    # of matrix products, which OpenBLAS sums in another order with another thread count
-    with threadpool_limits(limits=1, user_api="blas"):
-        truth = _run_fig2_episode(env, env_seed, target, seed, steps, snapshots, frames, masses)
-    path = _draw_fig2(Path(out), frames, masses, truth)
-    return Fig2Result(paths=[path], env_seed=env_seed, truth=truth, snapshot_masses=masses)
-
-
-def _run_fig2_episode(
-    env: Any,
-    env_seed: int,
-    target: np.ndarray,
-    seed: int,
-    steps: int,
-    snapshots: list[int],
-    frames: dict[int, np.ndarray],
-    masses: dict[int, float],
-) -> np.ndarray:
-    """Run the Fig. 2 episode, filling ``frames`` and ``masses`` at the snapshot steps;
-    returns the true beacon state."""
-    try:
-        observations, infos = env.reset(seed=env_seed, options={"target": target})
-        truth = env.unwrapped.true_target()
-        policy = make_policy(FIG2_PLANNER, env, seed=derive_seed("fig2-policy", seed))
-        first = env.possible_agents[0]
-        for step in range(1, steps + 1):
-            if not env.agents:
-                break
-            observations, _, _, _, infos = env.step(policy.act(observations, infos))
-            if step in snapshots:
-                frames[step] = env.render()
-                masses[step] = float(infos[first]["posterior_mass"])
-    finally:
-        env.close()
-    return np.asarray(truth)
-
-
-def _draw_fig2(
-    out: Path, frames: dict[int, np.ndarray], masses: dict[int, float], truth: np.ndarray
-) -> Path:
-    """``out/fig2.png``: the snapshot frames in a 2 x 2 grid at their own resolution (one
-    pixel per frame pixel, so the frames' text stays legible). Each frame carries its own
-    title (step and posterior mass) and legend; the panels get only their letter."""
-    from matplotlib.figure import Figure
-
-    height, width = next(iter(frames.values())).shape[:2]
-    dpi = 100
-    figure = Figure(figsize=(2 * width / dpi, 2 * height / dpi + 0.5), dpi=dpi)
-    for index, step in enumerate(sorted(frames)):
-        row, column = divmod(index, 2)
-        axes = figure.add_axes(
-            (column / 2, (1 - row) * height / (2 * height + 50), 0.5, height / (2 * height + 50))
-        )
-        axes.imshow(frames[step], interpolation="none")
-        axes.set_axis_off()
-        axes.text(
-            0.02,
-            0.985,
-            f"({'abcd'[index]})",
-            transform=axes.transAxes,
-            fontsize=14,
-            fontweight="bold",
-            va="top",
-        )
-    figure.suptitle(
-        f"{FIG2_AGENTS} quadrotors, pairwise-node planner; true beacon "
-        f"({truth[0]:.1f}, {truth[1]:.1f}), orientation {truth[2]:.3f} (pi/4 = {math.pi / 4:.3f})",
-        y=1 - 0.1 / (2 * height / dpi + 0.5),
-        va="top",
+    parser.add_argument(
+        "--trials",
+        type=int,
+        default=None,
+        help="trials per curve (fig1: default 1000; beacon: default 500; ablation: 100)",
     )
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / "fig2.png"
-    figure.savefig(path, dpi=dpi)
-    return path
+    parser.add_argument(
+        "--steps", type=int, default=None, help="steps per trial (default: the env's episode)"
+    )
+    parser.add_argument(
+        "--particles", type=int, default=None, help="particles per belief (default: env's 2000)"
+    )
+    parser.add_argument("--seed", type=int, default=0, help="root seed")
+    parser.add_argument(
+        "--out", type=Path, default=None, help="output directory (default infoseek-out/FIGURE)"
+    )
+    add_execution_arguments(parser)
+
+
+def run_reproduce_command(args: argparse.Namespace) -> int:
+    """``infoseek reproduce STUDY``."""
+    for option in ("trials", "steps", "particles"):
+        value = getattr(args, option)
+        if value is not None and value < 1:
+            raise ValueError(f"--{option} must be >= 1, got {value}")
+    check_seed(args.seed)
+    out = args.out if args.out is not None else Path("infoseek-out") / args.figure
+    check_writable_directory(out)
+    return _run_study(out, args)
+
+
+def _run_study(out: Path, args: argparse.Namespace) -> int:
+    """Run the study ``args.figure`` into ``out``; returns the exit code."""
+    if args.figure == "fig2":
+        return _fig2(out, args)
+    execution(args)
+    if args.figure == "ablation":
+        return _ablation(out, args)
+    if args.figure == "beacon":
+        plan = beacon_plan(args.trials or 500, args.steps, args.particles, args.seed)
+    else:
+        plan = fig1_plan(args.trials or 1000, args.steps, args.particles, args.seed)
+    store = out / "store"
+    code, _ = run_plan(plan, store, args)
+    if code != 0:
+        return code
+    for path in plot_fig1_from_store(store, out / args.figure):
+        print(f"wrote {path}")
+    return 0
+
+
+def _fig2(out: Path, args: argparse.Namespace) -> int:
+    """``infoseek reproduce fig2``: the episode, its figure and the snapshot masses."""
+    if args.backend is not None or args.workers is not None or args.address:
+        print("reproduce fig2: one episode; --backend/--workers/--address are ignored")
+    result = fig2.reproduce_fig2(out, steps=args.steps, particles=args.particles, seed=args.seed)
+    x, y, psi = result.truth
+    print(f"fig2: episode seed {result.env_seed}; beacon at ({x:.2f}, {y:.2f}), psi {psi:.4f}")
+    for step, mass in sorted(result.snapshot_masses.items()):
+        print(f"  t = {step:>2}: posterior mass within 1 unit (agent 0) {mass:.3f}")
+    for path in result.paths:
+        print(f"wrote {path}")
+    return 0
+
+
+def _ablation(out: Path, args: argparse.Namespace) -> int:
+    """``infoseek reproduce ablation``: every setting's store, then the table and figure, then
+    the decisions study (kept in ``OUT/decisions.json``)."""
+    if args.steps is not None or args.particles is not None:
+        raise ValueError("reproduce ablation: --steps/--particles are fixed by its settings")
+    trials = args.trials if args.trials is not None else ablation.DEFAULT_TRIALS
+    plans = list(ablation.ablation_plans(trials=trials, seed=args.seed))
+    for _, plan in plans:
+        plan.validate()  # every setting before any store is written
+    for name, plan in plans:
+        code, _ = run_plan(plan, out / name / "store", args)
+        if code != 0:
+            return code
+    rows = ablation.ablation_rows(out)
+    print(ablation.format_table(rows))
+    for path in ablation.write_results(out, rows):
+        print(f"wrote {path}")
+    decision_rows = decisions.read_decisions(out)
+    if decision_rows is None:
+        print("decisions: single-node's choices along pairwise-node episodes", flush=True)
+        decision_rows = decisions.decision_rows(seed=args.seed)
+        for path in decisions.write_decisions(out, decision_rows):
+            print(f"wrote {path}")
+    print(decisions.format_decisions(decision_rows))
+    return 0

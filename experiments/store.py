@@ -25,8 +25,12 @@ A store is a directory holding:
             "seed": 0,                                  # the run's root seed
             "version": "0.1.0"                          # infoseek version that wrote the store
           },
-          "parts": {"part-00001.parquet": {"bytes": 52311, "rows": 200, "sha256": "sha256:..."}}
-        }
+          "parts": {"part-00001.parquet": {"bytes": 52311, "rows": 200, "sha256": "sha256:..."}},
+          "runs": [{"trials": 200, "wall_time": 812.4, "backend": "process", "workers": 2,
+                    "machine": {...}, "version": "0.1.0", "finished": "..."}]
+        }                                               # runs: informational, one per run that
+                                                        # stored trials (stores written before
+                                                        # infoseek recorded them have none)
 
     Opening an existing store with a different ``config`` fails (:class:`StoreConfigError`,
     naming every differing field) before anything is written, so a directory written by
@@ -83,7 +87,7 @@ import json
 import math
 import os
 import warnings
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -95,6 +99,7 @@ from infoseek.experiments.checksums import (
     encode_checked_line,
     encode_sealed,
 )
+from infoseek.experiments.record import trial_key
 
 FORMAT = "infoseek-bench-store"
 FORMAT_VERSION = 3
@@ -131,41 +136,27 @@ class StoreWarning(UserWarning):
     """Something a reader skipped that is not damage (a torn last journal line)."""
 
 
-def trial_key(planner: str, n_agents: int, trial: int) -> str:
-    """The unique key of one trial in a store.
-
-    Args:
-        planner: Planner label (a scripted planner name, or ``"policy:<path>"``).
-        n_agents: Number of vehicles.
-        trial: Trial index within the (planner, n_agents) group.
-
-    Returns:
-        ``"<planner>/agents=<n_agents>/trial=<trial>"``.
-    """
-    return f"{planner}/agents={int(n_agents)}/trial={int(trial)}"
-
-
-def _jsonable(value: Any) -> Any:
+def jsonable(value: Any) -> Any:
     """``value`` with non-finite floats replaced by ``None`` and numpy scalars made plain."""
     if isinstance(value, float):
         return value if math.isfinite(value) else None
     if isinstance(value, Mapping):
-        return {str(k): _jsonable(v) for k, v in value.items()}
+        return {str(k): jsonable(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
-        return [_jsonable(v) for v in value]
+        return [jsonable(v) for v in value]
     if hasattr(value, "tolist") and not isinstance(value, str | bytes):  # numpy arrays/scalars
-        return _jsonable(value.tolist())
+        return jsonable(value.tolist())
     return value
 
 
 def encode_record(record: Mapping[str, Any]) -> str:
     """One JSON line (with trailing newline) for ``record``; keys sorted, strict JSON."""
-    return json.dumps(_jsonable(record), sort_keys=True, allow_nan=False) + "\n"
+    return json.dumps(jsonable(record), sort_keys=True, allow_nan=False) + "\n"
 
 
 def encode_journal_line(record: Mapping[str, Any]) -> bytes:
     """The journal line of ``record`` (strict JSON, keys sorted, with its checksum)."""
-    return encode_checked_line(_jsonable(dict(record)))
+    return encode_checked_line(jsonable(dict(record)))
 
 
 def _decode_line(line: bytes, checked: bool) -> dict[str, Any]:
@@ -288,6 +279,11 @@ def read_manifest(directory: str | os.PathLike[str]) -> dict[str, Any]:
     return manifest
 
 
+def _now() -> str:
+    """The time now, UTC, ISO 8601 to the second."""
+    return datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
+
+
 def _write_manifest(directory: Path, manifest: Mapping[str, Any]) -> None:
     """Replace the manifest durably (temporary file, fsync, rename, fsync of the folder)."""
     path = directory / MANIFEST_NAME
@@ -318,7 +314,12 @@ def part_info(data: bytes, rows: int) -> dict[str, Any]:
     return {"bytes": len(data), "rows": int(rows), "sha256": digest(data)}
 
 
-def decode_part(path: Path, data: bytes, listed: Mapping[str, Any] | None) -> Any:
+def decode_part(
+    path: Path,
+    data: bytes,
+    listed: Mapping[str, Any] | None,
+    columns: Sequence[str] | None = None,
+) -> Any:
     """The ``pyarrow.Table`` of the part ``path`` with content ``data``, checked.
 
     Args:
@@ -326,6 +327,8 @@ def decode_part(path: Path, data: bytes, listed: Mapping[str, Any] | None) -> An
         data: Its bytes.
         listed: Its manifest entry (:func:`part_info`), or ``None`` (an older store: no
             whole-file checksum).
+        columns: Decode only these columns (those the part has) and ``key``; ``None``: all.
+            The whole file's checksum is checked either way, and the pages read are.
 
     Raises:
         StoreCorruptError: Size or checksum differ from the manifest's, a Parquet page fails
@@ -351,7 +354,11 @@ def decode_part(path: Path, data: bytes, listed: Mapping[str, Any] | None) -> An
     buffer = pa.allocate_buffer(len(data))
     pa.FixedSizeBufferWriter(buffer).write(data)
     try:
-        table = pq.read_table(pa.BufferReader(buffer), page_checksum_verification=True)
+        source = pa.BufferReader(buffer)
+        if columns is not None:
+            present = pq.read_schema(pa.BufferReader(buffer)).names
+            columns = [name for name in present if name in {*columns, *REQUIRED_COLUMNS}]
+        table = pq.read_table(source, columns=columns, page_checksum_verification=True)
     except Exception as error:  # pyarrow raises several types for damaged files
         raise StoreCorruptError(f"{path}: damaged part, unreadable ({error})") from None
     if listed is not None and table.num_rows != listed.get("rows"):
@@ -365,8 +372,10 @@ def decode_part(path: Path, data: bytes, listed: Mapping[str, Any] | None) -> An
     return table
 
 
-def _read_tables(directory: Path, manifest: Mapping[str, Any]) -> list[Any]:
-    """Every part's checked table, in part order.
+def _read_tables(
+    directory: Path, manifest: Mapping[str, Any], columns: Sequence[str] | None = None
+) -> list[Any]:
+    """Every part's checked table, in part order (only ``columns`` and ``key``, if given).
 
     Raises:
         StoreCorruptError: A damaged part, a part the manifest lists that is missing, or (a
@@ -389,7 +398,8 @@ def _read_tables(directory: Path, manifest: Mapping[str, Any]) -> list[Any]:
             data = path.read_bytes()
         except FileNotFoundError:
             raise StoreCorruptError(f"{path}: missing (the manifest lists it)") from None
-        tables.append(decode_part(path, data, None if listed is None else listed[path.name]))
+        entry = None if listed is None else listed[path.name]
+        tables.append(decode_part(path, data, entry, columns))
     return tables
 
 
@@ -413,9 +423,26 @@ def _journal_checked(manifest: Mapping[str, Any]) -> bool:
     return int(manifest["format_version"]) >= CHECKSUMMED_VERSION
 
 
-def read_records(directory: str | os.PathLike[str]) -> list[dict[str, Any]]:
-    """Every complete trial record of the store in ``directory``: the parts, then the
-    journal (a torn last line ignored with a :class:`StoreWarning`), each key once.
+def read_rows(directory: str | os.PathLike[str]) -> list[dict[str, Any]]:
+    """Every complete trial row of the store in ``directory``: the parts, then the journal (a
+    torn last line ignored with a :class:`StoreWarning`), each key once.
+
+    Raises:
+        StoreConfigError: No results store in ``directory``.
+        StoreCorruptError: Any file of the store is damaged (the message names it).
+    """
+    tables, journal = read_columns(directory)
+    return _merge([row for table in tables for row in table.to_pylist()], journal)
+
+
+def read_columns(
+    directory: str | os.PathLike[str], columns: Sequence[str] | None = None
+) -> tuple[list[Any], list[dict[str, Any]]]:
+    """The stored trials of ``directory`` as read, before duplicates are dropped: every part's
+    checked ``pyarrow.Table`` (only ``columns`` and ``key``, if given; a part without some of
+    them has fewer) in part order, and the journal's rows (a torn last line ignored with a
+    :class:`StoreWarning`). A key's first occurrence, parts before the journal, is the stored
+    trial (:func:`read_rows` keeps only those).
 
     Raises:
         StoreConfigError: No results store in ``directory``.
@@ -425,7 +452,7 @@ def read_records(directory: str | os.PathLike[str]) -> list[dict[str, Any]]:
     journal_path = Path(directory) / TRIALS_NAME
     journal, _, torn = _scan(journal_path, _journal_checked(manifest))
     _warn_torn(journal_path, torn)
-    return _merge(_read_parts(Path(directory), manifest), journal)
+    return _read_tables(Path(directory), manifest, columns), journal
 
 
 def encode_part(records: list[dict[str, Any]]) -> Any:
@@ -438,7 +465,7 @@ def encode_part(records: list[dict[str, Any]]) -> Any:
     """
     import pyarrow as pa
 
-    rows = [_jsonable(dict(record)) for record in records]
+    rows = [jsonable(dict(record)) for record in records]
     fields = []
     for field in pa.Table.from_pylist(rows).schema:
         kind = field.type
@@ -452,7 +479,7 @@ def encode_part(records: list[dict[str, Any]]) -> Any:
 
 
 def as_stored(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """``records`` as a part stores them (float32 series): what :func:`read_records` returns
+    """``records`` as a part stores them (float32 series): what :func:`read_rows` returns
     for them after compaction."""
     return encode_part(records).to_pylist() if records else []
 
@@ -492,7 +519,7 @@ def _config_differences(stored: Mapping[str, Any], wanted: Mapping[str, Any]) ->
     return [
         f"{name}: stored {stored.get(name)!r}, requested {wanted.get(name)!r}"
         for name in names
-        if _jsonable(stored.get(name)) != _jsonable(wanted.get(name))
+        if jsonable(stored.get(name)) != jsonable(wanted.get(name))
     ]
 
 
@@ -518,7 +545,7 @@ class ResultsStore:
 
     def __init__(self, directory: str | os.PathLike[str], config: Mapping[str, Any]) -> None:
         self.directory = Path(directory)
-        self.config: dict[str, Any] = _jsonable(dict(config))
+        self.config: dict[str, Any] = jsonable(dict(config))
         manifest_path = self.directory / MANIFEST_NAME
         if self.directory.exists() and not self.directory.is_dir():
             raise StoreConfigError(f"{self.directory}: exists and is not a directory")
@@ -543,7 +570,7 @@ class ResultsStore:
             self._manifest = {
                 "format": FORMAT,
                 "format_version": FORMAT_VERSION,
-                "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+                "created": _now(),
                 "config": self.config,
                 "numerics": describe(),
                 "parts": {},
@@ -673,6 +700,13 @@ class ResultsStore:
         """Every stored record (parts, then the journal; first occurrence per key)."""
         journal, _, _ = _scan(self.directory / TRIALS_NAME)
         return _merge(_read_parts(self.directory, self._manifest), journal)
+
+    def record_run(self, run: Mapping[str, Any]) -> None:
+        """Add one entry to the manifest's ``runs`` (informational, like ``numerics``: when a
+        run stored trials, how many, its wall time, backend and machine), written durably."""
+        runs = [*self._manifest.get("runs", []), {**jsonable(dict(run)), "finished": _now()}]
+        self._manifest = {**self._manifest, "runs": runs}
+        _write_manifest(self.directory, self._manifest)
 
     def _add_part(self, table: Any) -> None:
         """Write ``table`` as a new part and record it in the manifest."""

@@ -2,7 +2,7 @@
 
 A trial is a pure function of its configuration (the store manifest's environment, environment
 keyword arguments and episode length), its planner label, its number of agents and its two
-seeds (see :mod:`infoseek.experiments.bench`). Rerunning it with the installed code must
+seeds (see :mod:`infoseek.experiments.seeds`). Rerunning it with the installed code must
 therefore reproduce its stored record, except for the timing fields (:data:`TIMING_FIELDS`),
 which measure the machine rather than the result.
 
@@ -34,12 +34,13 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from infoseek.experiments.bench import TrialSpec, execute, trial_progress_bar
+from infoseek.experiments.executors import execute
 from infoseek.experiments.policy_labels import display_name, is_policy, policy_file
-from infoseek.experiments.store import as_stored, encode_record, read_manifest, read_records
+from infoseek.experiments.progress import progress_bar
+from infoseek.experiments.record import TIMING_FIELDS, TrialRecord
+from infoseek.experiments.store import as_stored, encode_record, read_manifest, read_rows
+from infoseek.experiments.trial import TrialSpec
 
-#: Record fields that measure the machine, not the trial (left out of the comparison).
-TIMING_FIELDS = frozenset({"wall_time", "plan_time"})
 #: Relative and absolute tolerance of the comparison (module docstring).
 RTOL = 1e-5
 ATOL = 1e-6
@@ -50,7 +51,7 @@ def stored_trial_spec(
     record: Mapping[str, Any],
     store: str | os.PathLike[str] = ".",
 ) -> TrialSpec:
-    """The :class:`~infoseek.experiments.bench.TrialSpec` that reproduces a stored record.
+    """The :class:`~infoseek.experiments.trial.TrialSpec` that reproduces a stored record.
 
     Args:
         config: The store manifest's ``config``.
@@ -109,15 +110,15 @@ def _close(a: Any, b: Any) -> bool:
     return a == b
 
 
-def compare_records(stored: Mapping[str, Any], rerun: Mapping[str, Any]) -> Comparison:
-    """Compare a rerun record (brought into stored form) with the stored one (module doc)."""
-    rerun = as_stored([json.loads(encode_record(rerun))])[0]
-    fields = sorted((set(stored) | set(rerun)) - TIMING_FIELDS)
+def compare_records(stored: Mapping[str, Any], rerun: TrialRecord) -> Comparison:
+    """Compare a rerun record (brought into stored form) with the stored row (module doc)."""
+    rerun_row = as_stored([json.loads(encode_record(rerun.to_row()))])[0]
+    fields = sorted((set(stored) | set(rerun_row)) - TIMING_FIELDS)
     differing: list[str] = []
     first_step: int | None = None
     noise = 0.0
     for field in fields:
-        a, b = rerun.get(field, ...), stored.get(field, ...)
+        a, b = rerun_row.get(field, ...), stored.get(field, ...)
         if isinstance(a, list) and isinstance(b, list):
             bad = [t for t, (x, y) in enumerate(zip(a, b, strict=False)) if not _close(x, y)]
             if len(a) != len(b):
@@ -189,7 +190,7 @@ def verify_store(
     if trials is not None and trials < 1:
         raise ValueError(f"--trials must be a positive number of trials, got {trials}")
     config = read_manifest(directory)["config"]
-    records = read_records(directory)
+    records = read_rows(directory)
     stored_groups = {(str(r["planner"]), int(r["n_agents"])) for r in records}
     wanted = stored_groups if groups is None else set(groups)
     missing = sorted(wanted - stored_groups)
@@ -210,7 +211,7 @@ def verify_store(
         _check_model_file(spec)
     differing: dict[str, Comparison] = {}
     noisy, largest = 0, 0.0
-    bar = trial_progress_bar(len(specs), "verify", progress)
+    bar = progress_bar(len(specs), "verify", progress)
     try:
         for spec, rerun in execute(specs, backend=backend, workers=workers, address=address):
             comparison = compare_records(selected[spec.key], rerun)

@@ -8,7 +8,10 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from infoseek.experiments.ablation import (
+from infoseek.experiments.bench import run_bench
+from infoseek.experiments.cli import main
+from infoseek.experiments.columns import TrialView
+from infoseek.experiments.studies.ablation import (
     SETTINGS,
     AblationSetting,
     ablation_plans,
@@ -16,17 +19,25 @@ from infoseek.experiments.ablation import (
     gap_row,
     write_results,
 )
-from infoseek.experiments.bench import run_bench
-from infoseek.experiments.cli import main
 
 
-def _records(rng: np.random.Generator, trials: int, steps: int) -> list[dict]:
+def _records(rng: np.random.Generator, trials: int, steps: int) -> list[TrialView]:
     records = []
     for planner, lift in (("single", 0.0), ("pairwise", 0.05)):
         for trial in range(trials):
             mass = np.clip(np.sort(rng.uniform(0, 1, steps + 1)) + lift, 0, 1)
             records.append(
-                {"planner": planner, "n_agents": 4, "trial": trial, "mass_agent0": mass.tolist()}
+                TrialView(
+                    planner=planner,
+                    n_agents=4,
+                    trial=trial,
+                    env_seed=trial,
+                    radius=1.0,
+                    truth=None,
+                    mass_agent0=mass,
+                    error_agent0=None,
+                    plan_time=np.zeros(steps),
+                )
             )
     return records
 
@@ -36,8 +47,8 @@ def test_gap_row_is_the_paired_difference_of_the_trials() -> None:
     steps, trials = 12, 30
     records = _records(rng, trials, steps)
     row = gap_row(SETTINGS[0], records, steps, 4)
-    single = np.array([r["mass_agent0"] for r in records if r["planner"] == "single"])
-    pairwise = np.array([r["mass_agent0"] for r in records if r["planner"] == "pairwise"])
+    single = np.array([r.mass_agent0 for r in records if r.planner == "single"])
+    pairwise = np.array([r.mass_agent0 for r in records if r.planner == "pairwise"])
     diff = pairwise.mean(axis=1) - single.mean(axis=1)
     assert row.trials == trials
     assert row.mass_gap == pytest.approx(diff.mean())

@@ -18,24 +18,26 @@ from typing import Any
 import numpy as np
 import pytest
 
-from infoseek.experiments import bench, store
-from infoseek.experiments.bench import (
-    TIMING_FIELDS,
-    BenchPlan,
-    TrialSpec,
-    run_bench,
-    run_trial,
+from infoseek.experiments import executors, store
+from infoseek.experiments.analysis import (
+    GroupSummary,
+    format_summary,
     summarise,
     time_to_localise,
-    trial_seeds,
 )
+from infoseek.experiments.bench import BenchPlan, run_bench
+from infoseek.experiments.columns import TrialView
+from infoseek.experiments.policies import check_policy_path
+from infoseek.experiments.record import TIMING_FIELDS, TrialRecord
+from infoseek.experiments.seeds import trial_seeds
 from infoseek.experiments.store import (
     ResultsStore,
     StoreConfigError,
     StoreCorruptError,
     StoreLockedError,
-    read_records,
+    read_rows,
 )
+from infoseek.experiments.trial import TrialSpec, min_separation, position_metrics, run_trial
 
 TESTS_DIR = Path(__file__).resolve().parent
 # Tiny but real: bearings-only env, few particles and steps, the random policy.
@@ -80,18 +82,24 @@ def tiny_plan(trials: int = 3, groups: list[tuple[str, int]] | None = None) -> B
     )
 
 
-def deterministic(records: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
-    """Records by key, without the timing fields (which legitimately differ between runs)."""
-    return {r["key"]: {k: v for k, v in r.items() if k not in TIMING_FIELDS} for r in records}
+def read_records(directory: Path) -> list[TrialRecord]:
+    """The stored trials of the store in ``directory``, as records."""
+    return [TrialRecord.from_row(row) for row in read_rows(directory)]
+
+
+def deterministic(records: list[TrialRecord]) -> dict[str, dict[str, Any]]:
+    """Stored rows by key, without the timing fields (which legitimately differ between runs)."""
+    rows = [record.to_row() for record in records]
+    return {r["key"]: {k: v for k, v in r.items() if k not in TIMING_FIELDS} for r in rows}
 
 
 @pytest.fixture(scope="module")
-def reference(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, Any]]:
+def reference(tmp_path_factory: pytest.TempPathFactory) -> dict[str, TrialRecord]:
     """The tiny plan (random and single-node MI planner) run serially, uninterrupted."""
     out = tmp_path_factory.mktemp("reference")
     result = run_bench(tiny_plan(), out, backend="serial", progress=False)
     assert result.ran == 9 and result.skipped == 0
-    return deterministic(read_records(out))
+    return {record.key: record for record in read_records(out)}
 
 
 # ------------------------------------------------------------------------------------ seeds
@@ -131,7 +139,7 @@ def test_position_metrics_match_brute_force(rng: np.random.Generator) -> None:
         weights = rng.dirichlet(np.ones(300))
 
     truth = np.array([4.0, 6.0])
-    mass, error = bench._position_metrics(View, truth, radius=1.5)
+    mass, error = position_metrics(View, truth, radius=1.5)
     estimate = sum(w * p[:2] for w, p in zip(View.weights, View.particles, strict=True))
     brute_mass = sum(
         w
@@ -147,16 +155,26 @@ def test_min_separation_matches_brute_force(rng: np.random.Generator) -> None:
     brute = min(
         np.linalg.norm(states[i, :2] - states[j, :2]) for i in range(6) for j in range(i + 1, 6)
     )
-    assert bench._min_separation(states) == pytest.approx(brute, abs=1e-12)
-    assert bench._min_separation(states[:1]) is None
+    assert min_separation(states) == pytest.approx(brute, abs=1e-12)
+    assert min_separation(states[:1]) is None
 
 
 def test_time_to_localise_and_censored_summary() -> None:
     assert time_to_localise([0.0, 0.5, 0.9, 0.2]) == 2
     assert time_to_localise([0.0, 0.89, None]) is None
     records = [
-        {"planner": "p", "n_agents": 2, "mass_agent0": m, "plan_time": [0.001, 0.003]}
-        for m in ([0, 0.95, 1], [0, 0.1, 0.92], [0, 0.1, 0.2], [0, 0.1, 0.3])
+        TrialView(
+            planner="p",
+            n_agents=2,
+            trial=trial,
+            env_seed=trial,
+            radius=1.0,
+            truth=None,
+            mass_agent0=np.array(m, dtype=float),
+            error_agent0=None,
+            plan_time=np.array([0.001, 0.003]),
+        )
+        for trial, m in enumerate(([0, 0.95, 1], [0, 0.1, 0.92], [0, 0.1, 0.2], [0, 0.1, 0.3]))
     ]
     (row,) = summarise(records, steps=2)
     # times 1, 2 and two censored at 2 -> [1, 2, 2, 2]
@@ -167,15 +185,15 @@ def test_time_to_localise_and_censored_summary() -> None:
     assert row.plan_ms == pytest.approx(2.0)
 
 
-def test_trial_record_matches_the_environment(reference: dict[str, dict[str, Any]]) -> None:
+def test_trial_record_matches_the_environment(reference: dict[str, TrialRecord]) -> None:
     """Replay one trial by hand: the record's series equal the env's own per-step infos."""
     from infoseek.envs import make
     from infoseek.experiments.policies import make_policy
 
     record = reference["random/agents=3/trial=1"]
     env = make("bearings_v0", n_agents=3, max_cycles=TINY_STEPS, **TINY_KWARGS)
-    observations, infos = env.reset(seed=record["env_seed"])
-    policy = make_policy("random", env, seed=record["policy_seed"])
+    observations, infos = env.reset(seed=record.env_seed)
+    policy = make_policy("random", env, seed=record.policy_seed)
     masses = [[infos[a]["posterior_mass"] for a in env.possible_agents]]
     entropies = [infos["vehicle_0"]["entropy"]]
     while env.agents:
@@ -183,17 +201,17 @@ def test_trial_record_matches_the_environment(reference: dict[str, dict[str, Any
         masses.append([infos[a]["posterior_mass"] for a in env.possible_agents])
         entropies.append(infos["vehicle_0"]["entropy"])
     truth = env.unwrapped.true_target()
-    assert record["n_steps"] == TINY_STEPS
+    assert record.n_steps == TINY_STEPS
     for name in ("mass_agent0", "mass_team", "error_agent0", "entropy_team", "min_separation"):
-        assert len(record[name]) == TINY_STEPS + 1, name
+        assert len(getattr(record, name)) == TINY_STEPS + 1, name
     masses = np.array(masses)
-    np.testing.assert_allclose(record["mass_agent0"], masses[:, 0], atol=1e-9)
-    np.testing.assert_allclose(record["mass_team"], masses.mean(axis=1), atol=1e-9)
-    np.testing.assert_allclose(record["entropy_agent0"], entropies, atol=1e-12)
-    np.testing.assert_allclose(record["truth"], truth)
-    assert all(s > 0 for s in record["min_separation"])
+    np.testing.assert_allclose(record.mass_agent0, masses[:, 0], atol=1e-9)
+    np.testing.assert_allclose(record.mass_team, masses.mean(axis=1), atol=1e-9)
+    np.testing.assert_allclose(record.entropy_agent0, entropies, atol=1e-12)
+    np.testing.assert_allclose(record.truth, truth)
+    assert all(s > 0 for s in record.min_separation)
     final_estimate = env.unwrapped.agent_belief("vehicle_0").mmse()[:2]
-    assert record["error_agent0"][-1] == pytest.approx(np.linalg.norm(final_estimate - truth[:2]))
+    assert record.error_agent0[-1] == pytest.approx(np.linalg.norm(final_estimate - truth[:2]))
 
 
 # ------------------------------------------------------------------------------------ store
@@ -213,15 +231,15 @@ def test_store_append_is_durable_unique_and_torn_tail_is_dropped(tmp_path: Path)
     with open(trials, "ab") as f:
         f.write(b'{"key": "c", "v"')  # a killed writer's torn line
     with pytest.warns(store.StoreWarning, match="incomplete last line"):
-        assert [r["key"] for r in read_records(tmp_path / "s")] == ["a", "b"]
+        assert [r["key"] for r in read_rows(tmp_path / "s")] == ["a", "b"]
     with pytest.warns(store.StoreWarning):
-        assert read_records(tmp_path / "s")[1]["v"] is None  # strict JSON: NaN -> null
+        assert read_rows(tmp_path / "s")[1]["v"] is None  # strict JSON: NaN -> null
     with ResultsStore(tmp_path / "s", CONFIG) as s:
         assert s.keys == {"a", "b"}
         assert trials.read_bytes() == b""  # truncated back to the last full line
         s.append({"key": "c", "v": 3})
     assert store.part_keys(tmp_path / "s") == ["a", "b", "c"]
-    assert [r["v"] for r in read_records(tmp_path / "s")] == [1.5, None, 3]
+    assert [r["v"] for r in read_rows(tmp_path / "s")] == [1.5, None, 3]
 
 
 def test_store_keeps_a_killed_writers_journal_and_counts_every_trial_once(
@@ -237,13 +255,13 @@ def test_store_keeps_a_killed_writers_journal_and_counts_every_trial_once(
         store.encode_journal_line({"key": "a", "v": [0.1, 0.2]})
         + store.encode_journal_line({"key": "b", "v": [1.0]})
     )
-    assert [r["key"] for r in read_records(tmp_path / "s")] == ["a", "b"]
+    assert [r["key"] for r in read_rows(tmp_path / "s")] == ["a", "b"]
     with ResultsStore(tmp_path / "s", CONFIG) as s:
         assert s.keys == {"a", "b"}
         assert journal.read_bytes() == b""  # compacted on open
     assert store.part_keys(tmp_path / "s") == ["a", "b"]
     # series are single precision in a part, the rest as written
-    (a, b) = read_records(tmp_path / "s")
+    (a, b) = read_rows(tmp_path / "s")
     assert a["v"] == [float(np.float32(0.1)), float(np.float32(0.2))] and b["v"] == [1.0]
 
 
@@ -272,7 +290,7 @@ def test_store_detects_damage_and_concurrent_writers(tmp_path: Path) -> None:
     line = store.encode_journal_line
     trials.write_bytes(line({"key": "a"}) + b"not json\n" + line({"key": "b"}))
     with pytest.raises(StoreCorruptError, match="line 2"):
-        read_records(tmp_path / "s")
+        read_rows(tmp_path / "s")
 
 
 def test_a_series_of_nulls_is_stored(tmp_path: Path) -> None:
@@ -281,25 +299,25 @@ def test_a_series_of_nulls_is_stored(tmp_path: Path) -> None:
     with ResultsStore(tmp_path / "s", CONFIG) as s:
         s.append({"key": "a", "min_separation": [None, None], "mass": [0.5, 1.0]})
         s.append({"key": "b", "min_separation": [None, None, None], "mass": [0.25]})
-    assert [r["min_separation"] for r in read_records(tmp_path / "s")] == [[None] * 2, [None] * 3]
-    assert [r["mass"] for r in read_records(tmp_path / "s")] == [[0.5, 1.0], [0.25]]
+    assert [r["min_separation"] for r in read_rows(tmp_path / "s")] == [[None] * 2, [None] * 3]
+    assert [r["mass"] for r in read_rows(tmp_path / "s")] == [[0.5, 1.0], [0.25]]
 
 
 # ----------------------------------------------------------------------------- bench / resume
 def test_bench_resumes_from_a_partial_store_with_a_torn_line(
-    tmp_path: Path, reference: dict[str, dict[str, Any]]
+    tmp_path: Path, reference: dict[str, TrialRecord]
 ) -> None:
     out = tmp_path / "run"
     with ResultsStore(out, tiny_plan().config()) as s:
         for spec in tiny_plan().specs()[::2]:  # every other trial "finished" before the kill
-            s.append(run_trial(spec))
+            s.append(run_trial(spec).to_row())
     with open(out / store.TRIALS_NAME, "ab") as f:
         f.write(b'{"key": "random/agents=3/trial=2", "mass_age')
     result = run_bench(tiny_plan(), out, backend="serial", progress=False)
     assert (result.ran, result.skipped) == (4, 5)
     keys = store.part_keys(out)
     assert sorted(keys) == sorted(set(keys)) and len(keys) == 9  # each trial exactly once
-    assert deterministic(read_records(out)) == reference
+    assert deterministic(read_records(out)) == deterministic(list(reference.values()))
     again = run_bench(tiny_plan(), out, backend="serial", progress=False)
     assert (again.ran, again.skipped) == (0, 9)
     assert len(store.part_keys(out)) == 9
@@ -312,7 +330,7 @@ def test_bench_adds_groups_to_an_existing_run(tmp_path: Path) -> None:
         tiny_plan(trials=2, groups=[("random", 2), (sleepy, 2)]), tmp_path, progress=False
     )
     assert (result.ran, result.skipped) == (3, 1)
-    assert {r["key"] for r in result.records} == {
+    assert {r.key for r in result.records} == {
         "random/agents=2/trial=0",
         "random/agents=2/trial=1",
         f"{sleepy}/agents=2/trial=0",
@@ -330,9 +348,9 @@ def test_bench_plan_rejects_bad_requests() -> None:
     with pytest.raises(ValueError, match="--agents"):
         tiny_plan(groups=[("random", 0)])
     with pytest.raises(ValueError, match="unknown backend"):
-        bench.execute([TrialSpec("bearings_v0", {}, 1, "random", 1, 0, 1, 2)], backend="mpi")
+        executors.execute([TrialSpec("bearings_v0", {}, 1, "random", 1, 0, 1, 2)], backend="mpi")
     with pytest.raises(ValueError, match="no such file"):
-        bench.check_policy_path(str(TESTS_DIR / "no-such-model.zip"))
+        check_policy_path(str(TESTS_DIR / "no-such-model.zip"))
 
 
 def test_trained_policy_hook_resolves_through_baselines(
@@ -351,26 +369,26 @@ def test_trained_policy_hook_resolves_through_baselines(
 
     # setitem on the module dict: getattr would import the real (torch-based) loader first
     monkeypatch.setitem(vars(infoseek.baselines), "load_policy", fake_load_policy)
-    assert bench.check_policy_path(str(model)) == f"policy:{model.resolve()}"  # no store
-    label = bench.check_policy_path(str(model), tmp_path / "run")
+    assert check_policy_path(str(model)) == f"policy:{model.resolve()}"  # no store
+    label = check_policy_path(str(model), tmp_path / "run")
     assert label == "policy:../model.zip"  # relative to the store: portable
     result = run_bench(tiny_plan(trials=2, groups=[(label, 2)]), tmp_path / "run", progress=False)
-    assert [r["key"] for r in result.records] == [f"{label}/agents=2/trial={k}" for k in (0, 1)]
+    assert [r.key for r in result.records] == [f"{label}/agents=2/trial={k}" for k in (0, 1)]
     # once while the plan is validated (before anything is written), then once per trial
     path = str(model.resolve())
-    assert loaded == [(path, 0)] + [(path, r["policy_seed"]) for r in result.records]
+    assert loaded == [(path, 0)] + [(path, r.policy_seed) for r in result.records]
 
     monkeypatch.setitem(vars(infoseek.baselines), "load_policy", None)
     with pytest.raises(ValueError, match="load_policy"):
-        bench.check_policy_path(str(model))
+        check_policy_path(str(model))
 
 
 def test_process_backend_gives_identical_records(
-    tmp_path: Path, reference: dict[str, dict[str, Any]]
+    tmp_path: Path, reference: dict[str, TrialRecord]
 ) -> None:
     result = run_bench(tiny_plan(), tmp_path, backend="process", workers=2, progress=False)
     assert result.ran == 9
-    assert deterministic(read_records(tmp_path)) == reference
+    assert deterministic(read_records(tmp_path)) == deterministic(list(reference.values()))
 
 
 def test_process_backend_stopped_early_leaves_no_workers_running() -> None:
@@ -386,7 +404,7 @@ def test_process_backend_stopped_early_leaves_no_workers_running() -> None:
         trials=1,
     )
     before = set(multiprocessing.active_children())
-    stream = bench.execute(plan.specs(), backend="process", workers=2)
+    stream = executors.execute(plan.specs(), backend="process", workers=2)
     spec, _ = next(stream)
     assert spec.planner == "random"  # the horizon trial is still running in the other worker
     assert len(set(multiprocessing.active_children()) - before) == 2
@@ -413,11 +431,11 @@ def test_trials_are_generated_as_workers_free_up(backend: str) -> None:
             drawn += 1
             yield spec
 
-    stream = bench.execute(counted(), backend=backend, workers=2)
+    stream = executors.execute(counted(), backend=backend, workers=2)
     keys = [spec.key for spec, _ in itertools.islice(stream, 3)]
     stream.close()
     assert keys == [f"random/agents=1/trial={k}" for k in range(3)] or backend == "process"
-    assert drawn <= 3 + bench.IN_FLIGHT_PER_WORKER * 2
+    assert drawn <= 3 + executors.IN_FLIGHT_PER_WORKER * 2
 
 
 def _peak_rss_of_a_stopped_bench(out: Path, trials: int, workers: int) -> tuple[int, int]:
@@ -474,12 +492,12 @@ def test_memory_of_a_bench_does_not_grow_with_the_trials_asked_for(
 
 @pytest.mark.ray
 def test_ray_backend_gives_identical_records(
-    tmp_path: Path, reference: dict[str, dict[str, Any]]
+    tmp_path: Path, reference: dict[str, TrialRecord]
 ) -> None:
     pytest.importorskip("ray")
     result = run_bench(tiny_plan(), tmp_path, backend="ray", workers=2, progress=False)
     assert result.ran == 9
-    assert deterministic(read_records(tmp_path)) == reference
+    assert deterministic(read_records(tmp_path)) == deterministic(list(reference.values()))
 
 
 def test_killed_cli_run_resumes_to_the_uninterrupted_result(tmp_path: Path) -> None:
@@ -561,10 +579,8 @@ def test_policy_labels_are_portable_and_readable(tmp_path: Path) -> None:
     assert display_name("policy:/old/run/checkpoints/model_20_steps.zip") == (
         "policy checkpoints/model_20_steps"
     )
-    row = bench.GroupSummary(
-        "policy:shipped/ppo_bearings_v0_4agents", 4, 1, 1.0, (1, 1, 1), 0, 1, 1
-    )
-    assert "policy ppo_bearings_v0_4agents      4" in bench.format_summary([row], 20)
+    row = GroupSummary("policy:shipped/ppo_bearings_v0_4agents", 4, 1, 1.0, (1, 1, 1), 0, 1, 1)
+    assert "policy ppo_bearings_v0_4agents      4" in format_summary([row], 20)
 
 
 def test_the_committed_rl_bench_resumes_and_verifies_from_another_checkout(

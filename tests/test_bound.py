@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.special import erf
 
+from infoseek.experiments.analysis import masses_by_trial
 from infoseek.experiments.bound import (
     bound_rows,
     headroom,
@@ -16,8 +19,7 @@ from infoseek.experiments.bound import (
     time_to_localise_bound,
     trials_beating_the_bound,
 )
-from infoseek.experiments.plot import masses_by_trial
-from infoseek.experiments.store import read_records
+from infoseek.experiments.columns import TrialView, read_trials
 
 FIG1_STORE = Path(__file__).resolve().parents[1] / "experiments" / "results" / "fig1" / "store"
 
@@ -68,27 +70,30 @@ def test_time_to_localise_bound_is_the_first_crossing() -> None:
     np.testing.assert_array_equal(time_to_localise_bound(bounds), [2.0, 4.0])
 
 
+def _trial(
+    trial: int, truth: Sequence[float], mass: Sequence[float], error: Sequence[float]
+) -> TrialView:
+    """A stored pairwise-node trial at ``n_v = 4`` with these series."""
+    return TrialView(
+        planner="pairwise",
+        n_agents=4,
+        trial=trial,
+        env_seed=trial,
+        radius=1.0,
+        truth=np.array(truth),
+        mass_agent0=np.array(mass),
+        error_agent0=np.array(error),
+        plan_time=np.zeros(len(mass) - 1),
+    )
+
+
 def test_trials_beating_their_bound_and_the_headroom_left() -> None:
     """Two hand-made trials against hand-made bounds (first crossings at steps 5 and 2): trial 0
     localises at step 3, two steps early, with its target 0.5 from the domain's edge and its
     estimate 1.5 off; trial 1 localises at step 4, after its bound, in the middle."""
     records = [
-        {
-            "planner": "pairwise",
-            "n_agents": 4,
-            "trial": 0,
-            "truth": [39.5, 20.0],
-            "mass_agent0": [0.0, 0.2, 0.5, 0.95],
-            "error_agent0": [20.0, 5.0, 2.0, 1.5],
-        },
-        {
-            "planner": "pairwise",
-            "n_agents": 4,
-            "trial": 1,
-            "truth": [20.0, 20.0],
-            "mass_agent0": [0.0, 0.2, 0.5, 0.6, 0.91],
-            "error_agent0": [20.0, 5.0, 2.0, 1.0, 0.2],
-        },
+        _trial(0, [39.5, 20.0], [0.0, 0.2, 0.5, 0.95], [20.0, 5.0, 2.0, 1.5]),
+        _trial(1, [20.0, 20.0], [0.0, 0.2, 0.5, 0.6, 0.91], [20.0, 5.0, 2.0, 1.0, 0.2]),
     ]
     ramp = np.array([[0.0, 0.1, 0.2, 0.3, 0.4, 0.95], [0.0, 0.5, 0.95, 0.96, 0.97, 0.98]])
     assert trials_beating_the_bound(records, {4: ramp}, {}, 60) == (
@@ -97,7 +102,7 @@ def test_trials_beating_their_bound_and_the_headroom_left() -> None:
     )
     # headroom pairs each trial with its own bound row: single-node ran trial 1 alone (ttl 4,
     # bound 2)
-    records.append({**records[1], "planner": "single"})
+    records.append(dataclasses.replace(records[1], planner="single"))
     assert headroom(records, {4: ramp}, 60, reference="single") == (
         "  single/4: mean ttl 4.00, bound 2.00 over the same 1 trials: at most 50.0 % faster"
     )
@@ -108,10 +113,10 @@ def test_no_stored_fig1_curve_crosses_the_bound() -> None:
     receding-horizon groups hold a prefix of the trials). A belief of N equally weighted
     particles cannot hold less than 1/N outside the disk: it reports 1.0 where the bound is
     1 - 3e-8, so the curve may exceed the bound by at most 1/N."""
-    records = read_records(FIG1_STORE)
+    records = read_trials(FIG1_STORE)
     bounds = store_mass_bounds(records, {}, 60)
     rows = bound_rows(records)
-    groups = {(record["planner"], int(record["n_agents"])) for record in records}
+    groups = {(record.planner, record.n_agents) for record in records}
     assert {n for _, n in groups} == set(bounds)
     resolution = 1.0 / 2000  # bearings_v0's default n_particles, which the store ran with
     for planner, n_agents in sorted(groups):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import shutil
@@ -13,16 +14,46 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from infoseek.experiments.claims import format_p_value, mass_bands
+from infoseek.experiments.analysis import format_p_value, mass_curves
 from infoseek.experiments.cli import main
-from infoseek.experiments.plot import fig1_panels, mass_curves
+from infoseek.experiments.columns import TrialView
+from infoseek.experiments.plot import fig1_panels
+from infoseek.experiments.record import TrialRecord
 from infoseek.experiments.store import (
     MANIFEST_NAME,
     PARTS_NAME,
     TRIALS_NAME,
     read_manifest,
-    read_records,
+    read_rows,
 )
+from infoseek.experiments.studies.claims import distance_lines, mass_bands, start_centre
+
+
+def read_records(directory: Path) -> list[TrialRecord]:
+    """The stored trials of the store in ``directory``, as records."""
+    return [TrialRecord.from_row(row) for row in read_rows(directory)]
+
+
+def _view(
+    planner: str,
+    n_agents: int,
+    trial: int,
+    mass: list[float] | np.ndarray,
+    truth: np.ndarray | None = None,
+) -> TrialView:
+    """A stored trial with agent 0's mass series ``mass`` (and target ``truth``)."""
+    return TrialView(
+        planner=planner,
+        n_agents=n_agents,
+        trial=trial,
+        env_seed=trial,
+        radius=1.0,
+        truth=truth,
+        mass_agent0=np.asarray(mass, dtype=float),
+        error_agent0=None,
+        plan_time=np.zeros(len(mass) - 1),
+    )
+
 
 BENCH_TINY = ["--agents", "2", "--steps", "3", "--particles", "100", "--workers", "1"]
 
@@ -81,7 +112,7 @@ def test_bench_smoke_stores_and_summarises(
     assert manifest["config"]["env_kwargs"] == {"n_particles": 100}
     records = read_records(bench_dir)
     assert (bench_dir / TRIALS_NAME).read_bytes() == b""  # compacted into a part
-    assert sorted(r["key"] for r in records) == [
+    assert sorted(r.key for r in records) == [
         "random/agents=2/trial=0",
         "random/agents=2/trial=1",
     ]
@@ -129,10 +160,7 @@ def test_fig1_panels_follow_the_paper() -> None:
 
 
 def test_mass_curves_pad_short_trials() -> None:
-    records = [
-        {"planner": "p", "n_agents": 2, "mass_agent0": [0.0, 0.5, 1.0]},
-        {"planner": "p", "n_agents": 2, "mass_agent0": [0.0, 0.95]},
-    ]
+    records = [_view("p", 2, 0, [0.0, 0.5, 1.0]), _view("p", 2, 1, [0.0, 0.95])]
     np.testing.assert_array_equal(
         mass_curves(records)["p", 2], [[0.0, 0.5, 1.0], [0.0, 0.95, 0.95]]
     )
@@ -142,7 +170,7 @@ def test_reproduce_fig1_smoke(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     args = ["reproduce", "fig1", "--trials", "1", "--steps", "2", "--particles", "100"]
     assert main([*args, "--workers", "1", "--out", str(tmp_path)]) == 0
     records = read_records(tmp_path / "store")
-    assert sorted((r["planner"], r["n_agents"]) for r in records) == [
+    assert sorted((r.planner, r.n_agents) for r in records) == [
         ("pairwise", 2),
         ("pairwise", 3),
         ("pairwise", 4),
@@ -156,7 +184,7 @@ def test_reproduce_beacon_smoke(tmp_path: Path, capsys: pytest.CaptureFixture[st
     args = ["reproduce", "beacon", "--trials", "1", "--steps", "2", "--particles", "100"]
     assert main([*args, "--workers", "1", "--out", str(tmp_path)]) == 0
     records = read_records(tmp_path / "store")
-    assert sorted((r["planner"], r["n_agents"]) for r in records) == [
+    assert sorted((r.planner, r.n_agents) for r in records) == [
         ("lawnmower", 4),
         ("pairwise", 2),
         ("pairwise", 3),
@@ -188,7 +216,7 @@ def test_reproduce_fig2_smoke(tmp_path: Path, capsys: pytest.CaptureFixture[str]
         (["bench", "--env", "nope_v9"], "unknown environment 'nope_v9'"),
         (["bench", "--agents", "0"], "--agents must be >= 1"),
         (["bench", "--agents", "two"], "expected integers"),
-        (["bench", "--backend", "mpi"], "invalid choice"),
+        (["bench", "--backend", "mpi"], "unknown backend 'mpi'"),
         (["bench", "--policy", "no-such-model.zip"], "no such file"),
         (["reproduce", "fig1", "--trials", "0"], "--trials must be >= 1"),
         (["reproduce", "fig3"], "invalid choice"),
@@ -364,31 +392,20 @@ def test_claims_against_a_baseline_store_are_paired_differences(tmp_path: Path, 
 
 
 def test_distance_fit_recovers_a_linear_time_to_localise() -> None:
-    from infoseek.experiments.claims import distance_lines
-
     rng = np.random.default_rng(4)
     records = []
     for trial in range(30):
         truth = rng.uniform(10, 40, 2)
         ttl = int(round(0.5 * np.hypot(*(truth - 5.0)))) + 3
         mass = [0.5] * ttl + [0.95] * (61 - ttl)
-        records.append(
-            {
-                "planner": "pairwise",
-                "n_agents": 4,
-                "trial": trial,
-                "env_seed": trial,
-                "truth": truth.tolist(),
-                "mass_agent0": mass,
-            }
-        )
+        records.append(_view("pairwise", 4, trial, mass, truth))
     (line,) = distance_lines(records, 60, {4: np.array([5.0, 5.0])})
-    d = np.array([np.hypot(*(np.array(r["truth"]) - 5.0)) for r in records])
-    y = np.array([r["mass_agent0"].index(0.95) for r in records])
+    d = np.array([np.hypot(*(np.asarray(r.truth) - 5.0)) for r in records])
+    y = np.array([list(r.mass_agent0).index(0.95) for r in records])
     slope, intercept = np.polyfit(d, y, 1)
     assert f"ttl = {slope:.2f} d0 {intercept:+.2f}" in line and abs(slope - 0.5) < 0.05
     # a bound exactly linear in d0 is fitted exactly, after the planner's line
-    exact = {4: {r["trial"]: 2.0 * dist + 1.0 for r, dist in zip(records, d, strict=True)}}
+    exact = {4: {r.trial: 2.0 * dist + 1.0 for r, dist in zip(records, d, strict=True)}}
     lines = distance_lines(records, 60, {4: np.array([5.0, 5.0])}, exact)
     assert lines[0] == line
     assert lines[1].startswith("  bound/4: ttl = 2.00 d0 +1.00 (correlation 1.00, residual sd 0.00")
@@ -396,7 +413,6 @@ def test_distance_fit_recovers_a_linear_time_to_localise() -> None:
 
 def test_start_centre_is_the_mean_of_the_fleets_start_grid() -> None:
     from infoseek.envs import bearings_v0
-    from infoseek.experiments.claims import start_centre
 
     np.testing.assert_allclose(start_centre("bearings_v0", {}, 4), [5.0, 5.0])
     spread = start_centre("bearings_v0", {"start_spacing": 6.0}, 10)
@@ -424,7 +440,7 @@ def test_bench_accepts_a_planner_factory_path(tmp_path: Path) -> None:
     factory = "infoseek.planners:SingleNodePlanner.from_env"
     assert main([*argv, "--planner", factory]) == 0
     (record,) = read_records(out)
-    assert record["planner"] == factory and len(record["plan_time"]) == 2
+    assert record.planner == factory and len(record.plan_time) == 2
     assert main([*argv, "--planner", "infoseek.planners:NoSuchPlanner.from_env"]) == 2
 
 
@@ -437,7 +453,7 @@ def test_p_values_that_underflow_print_as_a_bound() -> None:
 def test_mass_bands_are_the_mean_and_interquartile_range_per_step() -> None:
     rng = np.random.default_rng(4)
     series = rng.uniform(0.0, 1.0, (9, 21))
-    records = [{"planner": "single", "n_agents": 4, "mass_agent0": row.tolist()} for row in series]
+    records = [_view("single", 4, trial, row) for trial, row in enumerate(series)]
     line = mass_bands(records, [("single", 4)])
     assert line.strip().startswith("single/4 mass mean (IQR):")
     for step in (5, 10, 15, 20):
@@ -447,7 +463,7 @@ def test_mass_bands_are_the_mean_and_interquartile_range_per_step() -> None:
         assert expected in line
 
 
-def _rewrite_as_journal(out: Path, records: list[dict]) -> None:
+def _rewrite_as_journal(out: Path, records: list[TrialRecord]) -> None:
     """The store ``out`` holding exactly ``records``, in its journal (double precision), as
     infoseek writes it (checksummed lines, the manifest listing no part)."""
     from infoseek.experiments import store
@@ -455,7 +471,8 @@ def _rewrite_as_journal(out: Path, records: list[dict]) -> None:
     manifest = store.read_manifest(out)
     shutil.rmtree(out / PARTS_NAME)
     store._write_manifest(out, {**manifest, "parts": {}})
-    (out / TRIALS_NAME).write_bytes(b"".join(store.encode_journal_line(r) for r in records))
+    lines = [store.encode_journal_line(record.to_row()) for record in records]
+    (out / TRIALS_NAME).write_bytes(b"".join(lines))
 
 
 def test_verify_reruns_stored_trials_and_names_the_ones_not_reproduced(
@@ -472,16 +489,21 @@ def test_verify_reruns_stored_trials_and_names_the_ones_not_reproduced(
     # Tamper with a result of trial 1 (a real divergence at the last step), a timing field of
     # trial 2 (ignored) and a result of trial 0 by 1e-7 (floating-point noise).
     records = read_records(out)
-    last = len(records[1]["mass_agent0"]) - 1
-    records[1]["mass_agent0"][-1] = records[1]["mass_agent0"][-1] / 2 + 0.01
-    records[2]["plan_time"] = [t + 1.0 for t in records[2]["plan_time"]]
-    records[0]["error_agent0"][1] += 1e-7
+    mass = list(records[1].mass_agent0)
+    last = len(mass) - 1
+    mass[-1] = mass[-1] / 2 + 0.01
+    records[1] = dataclasses.replace(records[1], mass_agent0=tuple(mass))
+    plan_time = tuple(t + 1.0 for t in records[2].plan_time)
+    records[2] = dataclasses.replace(records[2], plan_time=plan_time)
+    error = list(records[0].error_agent0)
+    error[1] += 1e-7
+    records[0] = dataclasses.replace(records[0], error_agent0=tuple(error))
     _rewrite_as_journal(out, records)
     before = _snapshot(out)
     assert main(["verify", str(out), "--workers", "1"]) == 1
     report = capsys.readouterr().out
-    assert f"{records[1]['key']}: diverged from step {last}; differs in mass_agent0" in report
-    assert records[2]["key"] not in report and records[0]["key"] not in report
+    assert f"{records[1].key}: diverged from step {last}; differs in mass_agent0" in report
+    assert records[2].key not in report and records[0].key not in report
     assert "3 stored trial(s) rerun: 1 reproduced exactly, 1 equal within tolerance" in report
     assert "1 not reproduced" in report
     assert _snapshot(out) == before  # verify never writes to the store

@@ -1,4 +1,5 @@
-"""The decision-agreement study and the switched planner (infoseek.experiments.decisions)."""
+"""The decision-agreement study (infoseek.experiments.studies.decisions) and the switched planner
+(infoseek.experiments.decisions)."""
 
 from __future__ import annotations
 
@@ -8,17 +9,17 @@ import numpy as np
 import pytest
 
 from infoseek.envs import bearings_v0
-from infoseek.experiments.bench import trial_seeds
-from infoseek.experiments.decisions import (
+from infoseek.experiments.decisions import PairwiseThenSingle
+from infoseek.experiments.policies import make_policy
+from infoseek.experiments.seeds import trial_seeds
+from infoseek.experiments.studies.decisions import (
     DIFFERENT_TURN_RATE,
-    PairwiseThenSingle,
     format_decisions,
     read_decisions,
     summarise_differences,
     trial_differences,
     write_decisions,
 )
-from infoseek.experiments.policies import make_policy
 
 
 def test_summary_matches_a_direct_count() -> None:

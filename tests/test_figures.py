@@ -15,9 +15,10 @@ import pytest
 
 import infoseek.envs
 from infoseek.envs.rendering import SearchRenderer
-from infoseek.experiments.ablation import GapRow, ablation_figure
 from infoseek.experiments.clairvoyant import CLAIRVOYANT_LABEL
+from infoseek.experiments.columns import TrialView
 from infoseek.experiments.plot import IQR_LABEL, SE_LABEL, fig1_figure
+from infoseek.experiments.studies.ablation import GapRow, ablation_figure
 
 #: Smallest font (points) of any text at the saved size (the figures are saved at >= 100 dpi).
 SMALLEST_FONT = 6.0
@@ -74,7 +75,7 @@ def small_texts(figure: Any) -> list[str]:
     ]
 
 
-def _records(rng: np.random.Generator) -> list[dict[str, Any]]:
+def _records(rng: np.random.Generator) -> list[TrialView]:
     """Synthetic trials of every group the three panels of Fig. 1 draw."""
     groups = [
         ("single", 4),
@@ -90,17 +91,19 @@ def _records(rng: np.random.Generator) -> list[dict[str, Any]]:
     for planner, n_agents in groups:
         for trial in range(12):
             ttl = int(rng.integers(3, 12))
-            mass = np.clip(np.arange(16) / ttl, 0.0, 1.0).tolist()
+            mass = np.clip(np.arange(16) / ttl, 0.0, 1.0)
             records.append(
-                {
-                    "key": f"{planner}/agents={n_agents}/trial={trial}",
-                    "planner": planner,
-                    "n_agents": n_agents,
-                    "trial": trial,
-                    "env_seed": trial,
-                    "mass_agent0": mass,
-                    "radius": 1.0,
-                }
+                TrialView(
+                    planner=planner,
+                    n_agents=n_agents,
+                    trial=trial,
+                    env_seed=trial,
+                    radius=1.0,
+                    truth=None,
+                    mass_agent0=mass,
+                    error_agent0=None,
+                    plan_time=np.zeros(15),
+                )
             )
     return records
 
@@ -169,8 +172,8 @@ def test_search_frames_name_every_mark_with_and_without_the_zoom(
     env_id: str, rng: np.random.Generator
 ) -> None:
     env = infoseek.envs.make(env_id, n_agents=3, n_particles=300)
-    renderer = SearchRenderer(env.unwrapped.space)
-    space = env.unwrapped.space
+    renderer = SearchRenderer(env.unwrapped.config.space)
+    space = env.unwrapped.config.space
     spread = rng.uniform(space.low, space.high, size=(500, space.dim))
     weights = np.full(500, 1.0 / 500)
     trails = np.stack([np.linspace([5, 5], [20 + a, 30], 10) for a in range(3)], axis=1)

@@ -2,7 +2,7 @@
 
 A store of two parts and a journal is damaged at seeded offsets (bytes overwritten, files cut
 short, files removed); every damage must make the readers fail with the damaged file's name
-(``read_records``, ``infoseek verify --integrity``, ``infoseek claims`` with exit status 2 and
+(``read_rows``, ``infoseek verify --integrity``, ``infoseek claims`` with exit status 2 and
 nothing on stdout). The one documented exception is the journal's tail: a journal cut at a
 line boundary reads as a run stopped earlier, and a last line that lost its newline as a torn
 write (a warning); both give a prefix of the stored trials, never a changed one.
@@ -36,7 +36,7 @@ from infoseek.experiments.store import (
     ResultsStore,
     StoreCorruptError,
     StoreWarning,
-    read_records,
+    read_rows,
 )
 
 STEPS = 6
@@ -129,7 +129,7 @@ def _journal_prefix_only(directory: Path, pristine_records: list[dict[str, Any]]
     earlier): the documented, silent case of a journal cut at a line boundary."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", StoreWarning)
-        records = read_records(directory)
+        records = read_rows(directory)
     return records == pristine_records[: len(records)] and len(records) >= 24
 
 
@@ -139,7 +139,7 @@ def test_every_damage_is_named_and_never_read_as_numbers(
 ) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error", StoreWarning)
-        pristine_records = read_records(pristine)
+        pristine_records = read_rows(pristine)
     assert len(pristine_records) == 28
     directory = _copy(pristine, tmp_path)
     path = _apply(directory, case, np.random.default_rng(case[2] % 2**32))
@@ -148,7 +148,7 @@ def test_every_damage_is_named_and_never_read_as_numbers(
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error", StoreWarning)
-            read_records(directory)
+            read_rows(directory)
     except StoreCorruptError as error:
         assert name in str(error) and "\n" not in str(error)
     except StoreWarning as warning:  # a journal's last line that lost its newline
@@ -228,7 +228,7 @@ def test_a_part_the_manifest_does_not_list_is_refused_by_readers_and_repaired_by
     journal = store._scan(directory / TRIALS_NAME)[0]
     store._write_part(directory, store.encode_part(journal))  # not recorded in the manifest
     with pytest.raises(StoreCorruptError, match="part-00003.parquet: a part the manifest does"):
-        read_records(directory)
+        read_rows(directory)
     with ResultsStore(directory, CONFIG):
         pass
     keys = store.part_keys(directory)
@@ -246,7 +246,7 @@ def test_an_older_store_is_sealed_by_the_next_writer_and_by_migrate(
     """A format 2 store (parts without checksums, a plain JSON journal) is read as it is and
     gets its checksums from the next writer (here ``infoseek migrate``), numbers unchanged."""
     directory = _copy(pristine, tmp_path)
-    records = read_records(directory)
+    records = read_rows(directory)
     manifest = store.read_manifest(directory)
     del manifest["parts"]
     manifest["format_version"] = 2
@@ -254,13 +254,13 @@ def test_an_older_store_is_sealed_by_the_next_writer_and_by_migrate(
     lines = [json.loads(line) for line in (directory / TRIALS_NAME).read_text().splitlines()]
     plain = [{k: v for k, v in line.items() if k != "_sha256"} for line in lines]
     (directory / TRIALS_NAME).write_text("".join(json.dumps(r) + "\n" for r in plain))
-    assert read_records(directory) == records
+    assert read_rows(directory) == records
     report = check_integrity(directory)
     assert report.problems == [] and any("without checksums" in n for n in report.notes)
     assert main(["migrate", str(directory)]) == 0
     assert "format 3 with checksums" in capsys.readouterr().out
     assert store.read_manifest(directory)["format_version"] == 3
-    assert read_records(directory) == store.as_stored(records)
+    assert read_rows(directory) == store.as_stored(records)
     assert check_integrity(directory).problems == []
 
 

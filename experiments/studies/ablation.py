@@ -30,18 +30,24 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from infoseek.experiments.bench import BenchPlan, default_steps
-from infoseek.experiments.claims import times_to_localise, wilcoxon_faster
+from infoseek.experiments.analysis import (
+    Trial,
+    paired_masses,
+    times_to_localise,
+    wilcoxon_faster,
+)
+from infoseek.experiments.bench import BenchPlan
+from infoseek.experiments.columns import read_trials
 from infoseek.experiments.decisions import SWITCHED_PLANNERS
-from infoseek.experiments.plot import paired_masses
-from infoseek.experiments.store import read_manifest, read_records
+from infoseek.experiments.environments import default_steps
+from infoseek.experiments.store import read_manifest
 
 ABLATION_ENV = "bearings_v0"
 DEFAULT_TRIALS = 100
@@ -175,7 +181,7 @@ class GapRow:
 
 def gap_row(
     setting: AblationSetting,
-    records: Sequence[Mapping[str, Any]],
+    records: Sequence[Trial],
     steps: int,
     n_agents: int,
     planner: str = "pairwise",
@@ -223,7 +229,7 @@ def ablation_rows(out: str | Path, settings: Sequence[AblationSetting] = SETTING
         if not (store / "manifest.json").exists():
             continue
         steps = int(read_manifest(store)["config"]["steps"])
-        records = read_records(store)
+        records = read_trials(store)
         for n_agents in setting.fleets:
             rows.append(gap_row(setting, records, steps, n_agents))
         for planner, n_agents in setting.treatments:

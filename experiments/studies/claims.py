@@ -8,7 +8,7 @@ The paper (section IV.A, Fig. 1) makes two claims about bearings-only search:
 
 Trial ``k`` of every group in a store faces the same target and start (its environment seed
 depends only on the run's seed, the environment and ``k``; see
-:mod:`infoseek.experiments.bench`), so groups are compared **paired by trial**. The response is
+:mod:`infoseek.experiments.seeds`), so groups are compared **paired by trial**. The response is
 the time to localise: the first step at which agent 0's posterior mass within the localisation
 radius of its MMSE estimate reaches 0.9 (the Fig. 1 metric), censored at the episode length.
 
@@ -21,31 +21,59 @@ radius of its MMSE estimate reaches 0.9 (the Fig. 1 metric), censored at the epi
   one-sided Wilcoxon tests between consecutive fleet sizes.
 
 A claim "holds" at level ``alpha`` when its test rejects the null of no difference in the
-claimed direction. The command also prints the summary table of every group in the store.
+claimed direction. The command also prints the summary table of every group in the store, the
+receding-horizon planner and the clairvoyant reference against pairwise-node where the store
+holds them, the clairvoyant bound of a ``bearings_v0`` store (:mod:`infoseek.experiments.bound`)
+and the linear fit of the time to localise against the target's initial distance.
+:func:`claims_report` returns the sections (the results pages quote them), :func:`run_claims`
+prints them. The store is read column by column (:mod:`infoseek.experiments.columns`).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from scipy import stats
 
-from infoseek.experiments.arguments import check_results_directory
-from infoseek.experiments.bench import format_summary, make_env, summarise, time_to_localise
-from infoseek.experiments.bound import (
-    bound_times,
-    describe,
-    headroom,
-    store_mass_bounds,
-    trials_beating_the_bound,
+from infoseek.experiments.analysis import (
+    Trial,
+    check_pairing,
+    format_p_value,
+    format_summary,
+    groups_of,
+    mass_curves,
+    paired_masses,
+    paired_matrix,
+    summarise,
+    times_to_localise,
+    wilcoxon_faster,
 )
+from infoseek.experiments.arguments import check_results_directory
+from infoseek.experiments.bound import bound_report
 from infoseek.experiments.clairvoyant import CLAIRVOYANT_LABEL
-from infoseek.experiments.plot import mass_curves, paired_masses
-from infoseek.experiments.store import read_manifest, read_records
+from infoseek.experiments.columns import read_trials
+from infoseek.experiments.environments import make_env
+from infoseek.experiments.store import read_manifest
+
+__all__ = [
+    "BAND_STEPS",
+    "ClaimsReport",
+    "add_claims_arguments",
+    "claims_report",
+    "distance_lines",
+    "mass_bands",
+    "run_claims",
+    "start_centre",
+]
+
+BAND_STEPS = (5, 10, 15, 20)
+"""Steps at which :func:`mass_bands` reports the Fig. 1 curves' means and quartile bands."""
 
 
 def add_claims_arguments(parser: argparse.ArgumentParser) -> None:
@@ -67,20 +95,9 @@ def add_claims_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def times_to_localise(
-    records: Sequence[Mapping[str, Any]], planner: str, n_agents: int, steps: int
-) -> dict[int, float]:
-    """``{trial: censored time to localise}`` of one group, checking the pairing by seed."""
-    times = {}
-    for record in records:
-        if record["planner"] == planner and int(record["n_agents"]) == n_agents:
-            ttl = time_to_localise(record["mass_agent0"])
-            times[int(record["trial"])] = float(steps if ttl is None else ttl)
-    return times
-
-
+# ----------------------------------------------------------------------------------- lines
 def paired_mass_gaps(
-    records: Sequence[Mapping[str, Any]], base: str, other: str, n_agents: int, steps: int
+    records: Sequence[Trial], base: str, other: str, n_agents: int, steps: int
 ) -> str:
     """One line: the mean paired mass difference ``other - base`` at :data:`BAND_STEPS` and 30,
     with standard errors, over the trials both groups hold (where in the search one wins)."""
@@ -95,7 +112,7 @@ def paired_mass_gaps(
 
 
 def mean_mass_line(
-    records: Sequence[Mapping[str, Any]], base: str, other: str, n_agents: int, steps: int
+    records: Sequence[Trial], base: str, other: str, n_agents: int, steps: int
 ) -> str:
     """One line: the paired difference ``other - base`` of the mean posterior mass over steps
     ``0..steps`` (a low-variance summary of the whole curve) with a one-sided Wilcoxon test
@@ -110,52 +127,8 @@ def mean_mass_line(
     )
 
 
-def _paired(groups: Sequence[dict[int, float]]) -> np.ndarray:
-    """``(trials, groups)`` matrix over the trials every group has."""
-    common = sorted(set.intersection(*(set(g) for g in groups)))
-    return np.array([[g[t] for g in groups] for t in common], dtype=float).reshape(
-        len(common), len(groups)
-    )
-
-
-def _check_pairing(records: Sequence[Mapping[str, Any]]) -> None:
-    seeds: dict[int, int] = {}
-    for record in records:
-        trial, seed = int(record["trial"]), int(record["env_seed"])
-        if seeds.setdefault(trial, seed) != seed:
-            raise ValueError(
-                f"trial {trial} has different environment seeds across groups: the store's "
-                "groups are not paired"
-            )
-
-
-def format_p_value(p: float) -> str:
-    """``"= 0.0123"``-style text of a p-value; one that underflowed to 0 prints as a bound.
-
-    Args:
-        p: The p-value.
-    """
-    if p <= 0.0:  # below the smallest normal double: say so instead of claiming p = 0
-        return f"< {np.finfo(np.float64).tiny:.3g}"
-    return f"= {p:.3g}"
-
-
-def wilcoxon_faster(slower: np.ndarray, faster: np.ndarray) -> tuple[float, float, float]:
-    """One-sided Wilcoxon signed-rank test that ``faster`` localises sooner than ``slower``.
-
-    Returns:
-        ``(mean difference slower - faster, its standard error, p-value)``.
-    """
-    difference = slower - faster
-    stderr = float(np.std(difference, ddof=1) / np.sqrt(difference.size))
-    if not np.any(difference != 0):
-        return 0.0, stderr, 1.0
-    result = stats.wilcoxon(slower, faster, alternative="greater", zero_method="wilcox")
-    return float(np.mean(difference)), stderr, float(result.pvalue)
-
-
-def _faster(
-    records: Sequence[Mapping[str, Any]],
+def faster_line(
+    records: Sequence[Trial],
     slower: str,
     faster: str,
     n_agents: int,
@@ -164,7 +137,7 @@ def _faster(
     label: str,
 ) -> str:
     """One line: paired test that planner ``faster`` localises sooner than ``slower``."""
-    data = _paired(
+    data = paired_matrix(
         [
             times_to_localise(records, slower, n_agents, steps),
             times_to_localise(records, faster, n_agents, steps),
@@ -181,11 +154,7 @@ def _faster(
     )
 
 
-BAND_STEPS = (5, 10, 15, 20)
-"""Steps at which :func:`mass_bands` reports the Fig. 1 curves' means and quartile bands."""
-
-
-def mass_bands(records: Sequence[Mapping[str, Any]], groups: Sequence[tuple[str, int]]) -> str:
+def mass_bands(records: Sequence[Trial], groups: Sequence[tuple[str, int]]) -> str:
     """One line per group: mean and interquartile range of agent 0's posterior mass at the
     steps of :data:`BAND_STEPS` (the numbers behind the Fig. 1 curves and quartile bars).
 
@@ -205,17 +174,13 @@ def mass_bands(records: Sequence[Mapping[str, Any]], groups: Sequence[tuple[str,
     return "\n".join(lines)
 
 
-def baseline_lines(
-    records: Sequence[Mapping[str, Any]],
-    baseline: Sequence[Mapping[str, Any]],
-    steps: int,
-) -> list[str]:
+def baseline_lines(records: Sequence[Trial], baseline: Sequence[Trial], steps: int) -> list[str]:
     """Per group both stores hold: mean ttl here and in ``baseline`` over the trials both hold,
     the paired difference with its standard error and a two-sided Wilcoxon p-value."""
     lines = []
-    ours = {(r["planner"], int(r["n_agents"])) for r in records}
-    theirs = {(r["planner"], int(r["n_agents"])) for r in baseline}
-    for planner, n_agents in sorted(ours & theirs, key=lambda g: (g[1], g[0])):
+    for planner, n_agents in sorted(
+        groups_of(records) & groups_of(baseline), key=lambda g: (g[1], g[0])
+    ):
         new = times_to_localise(records, planner, n_agents, steps)
         old = times_to_localise(baseline, planner, n_agents, steps)
         trials = sorted(set(new) & set(old))
@@ -243,7 +208,7 @@ def start_centre(env: str, env_kwargs: Mapping[str, Any], n_agents: int) -> np.n
 
 
 def distance_lines(
-    records: Sequence[Mapping[str, Any]],
+    records: Sequence[Trial],
     steps: int,
     centres: Mapping[int, np.ndarray],
     bound: Mapping[int, Mapping[int, float]] | None = None,
@@ -252,12 +217,10 @@ def distance_lines(
     target's initial distance ``d_0`` from the fleet's mean start position ``centres[n_v]``,
     with the correlation and the residual standard deviation; with ``bound`` (fleet size ->
     ``{trial: the bound's time to localise}``) the same fit of the bound per fleet size."""
-    truths = {(int(r["n_agents"]), int(r["trial"])): r["truth"][:2] for r in records}
+    truths = {(r.n_agents, r.trial): r.truth for r in records}
     series = {
         f"{planner}/{n_agents}": (n_agents, times_to_localise(records, planner, n_agents, steps))
-        for planner, n_agents in sorted(
-            {(r["planner"], int(r["n_agents"])) for r in records}, key=lambda g: g[::-1]
-        )
+        for planner, n_agents in sorted(groups_of(records), key=lambda g: g[::-1])
     }
     for n_agents, times in sorted((bound or {}).items()):
         series[f"bound/{n_agents}"] = (n_agents, dict(times))
@@ -265,7 +228,10 @@ def distance_lines(
     for label, (n_agents, times) in series.items():
         trials = sorted(times)
         d = np.array(
-            [np.linalg.norm(np.asarray(truths[n_agents, k]) - centres[n_agents]) for k in trials]
+            [
+                np.linalg.norm(np.asarray(truths[n_agents, k])[:2] - centres[n_agents])
+                for k in trials
+            ]
         )
         y = np.array([times[k] for k in trials])
         if d.size < 3 or np.ptp(d) == 0.0:
@@ -279,19 +245,19 @@ def distance_lines(
     return lines
 
 
-def _claim_b(
-    records: Sequence[Mapping[str, Any]], sizes: Sequence[int], steps: int, alpha: float
+def claim_b_lines(
+    records: Sequence[Trial], sizes: Sequence[int], steps: int, alpha: float
 ) -> list[str]:
     """Claim B's lines: Page's trend test over the fleet sizes (three or more; with two, the
     one-sided Wilcoxon test decides) and the Wilcoxon test of each consecutive pair."""
     ordered = sorted(sizes, reverse=True)  # predicted: ttl increases as n_v decreases
-    data = _paired([times_to_localise(records, "pairwise", n, steps) for n in ordered])
+    data = paired_matrix([times_to_localise(records, "pairwise", n, steps) for n in ordered])
     means = ", ".join(f"n_v={n}: {m:.2f}" for n, m in zip(ordered, data.mean(axis=0), strict=True))
     head = f"Claim B (more vehicles localise faster, pairwise): {data.shape[0]} paired trials, "
     lines = []
     pairs = []
     for fewer, more in zip(sizes[:-1], sizes[1:], strict=True):
-        pair = _paired(
+        pair = paired_matrix(
             [
                 times_to_localise(records, "pairwise", fewer, steps),
                 times_to_localise(records, "pairwise", more, steps),
@@ -313,104 +279,161 @@ def _claim_b(
     return [f"{head}mean ttl {means}; {test} -> {verdict} at alpha = {alpha}", *lines]
 
 
-def _print_bound(
-    records: Sequence[Mapping[str, Any]], env_kwargs: Mapping[str, Any], steps: int
-) -> dict[int, dict[int, float]]:
-    """Print the clairvoyant bound's lines of a ``bearings_v0`` store; returns its times to
-    localise (fleet size -> ``{trial: steps}``)."""
-    bounds = store_mass_bounds(records, env_kwargs, steps)
-    print("Clairvoyant bound (infoseek.experiments.bound; Gaussian-posterior assumption):")
-    print(describe(bounds))
-    print("What the bound leaves to gain over pairwise-node (mean time to localise):")
-    print(headroom(records, bounds, steps))
-    print("Trials localised before their own bound (where its assumption fails; r: radius):")
-    print(trials_beating_the_bound(records, bounds, env_kwargs, steps))
-    return bound_times(records, bounds)
+def paper_claim_lines(records: Sequence[Trial], steps: int, alpha: float) -> list[str]:
+    """Claim A (pairwise-node faster than single-node at n_v = 4, and at the other fleet sizes
+    both ran) and Claim B (more vehicles localise faster)."""
+    groups = groups_of(records)
+    lines = []
+    if {("single", 4), ("pairwise", 4)} <= groups:
+        lines.append(faster_line(records, "single", "pairwise", 4, steps, alpha, "Claim A"))
+        lines.append(mean_mass_line(records, "single", "pairwise", 4, steps))
+        lines.append(mass_bands(records, [("single", 4), ("pairwise", 4)]))
+    else:
+        lines.append("Claim A: needs groups single/4 and pairwise/4")
+    for n in sorted(n for planner, n in groups if planner == "single" and n != 4):
+        if ("pairwise", n) in groups:
+            lines.append(faster_line(records, "single", "pairwise", n, steps, alpha, "  also"))
+    sizes = sorted(n for planner, n in groups if planner == "pairwise")
+    if len(sizes) >= 2:
+        lines.append("\n".join(claim_b_lines(records, sizes, steps, alpha)))
+    else:
+        lines.append("Claim B: needs pairwise groups with at least two fleet sizes")
+    return lines
 
 
-def _read_baseline(
-    args: argparse.Namespace, config: Mapping[str, Any]
-) -> list[dict[str, Any]] | None:
-    """The records of ``--baseline``, checked to pair with ``config`` (same env, seed, steps)."""
-    if getattr(args, "baseline", None) is None:
-        return None
-    check_results_directory(args.baseline)
-    other = read_manifest(args.baseline)["config"]
+def reference_lines(records: Sequence[Trial], steps: int, alpha: float) -> tuple[list[str], ...]:
+    """The receding-horizon planner's lines and the clairvoyant reference's, each against
+    pairwise-node at every fleet size where the store holds both."""
+    groups = groups_of(records)
+    horizon, clairvoyant = [], []
+    for n in sorted(n for planner, n in groups if planner == "horizon"):
+        if ("pairwise", n) in groups:
+            horizon.append(faster_line(records, "pairwise", "horizon", n, steps, alpha, "Horizon"))
+            horizon.append(paired_mass_gaps(records, "pairwise", "horizon", n, steps))
+    for n in sorted(n for planner, n in groups if planner == CLAIRVOYANT_LABEL):
+        if ("pairwise", n) in groups:
+            line = faster_line(records, "pairwise", CLAIRVOYANT_LABEL, n, steps, alpha, "")
+            clairvoyant.append("Clairvoyant reference (knows the target)" + line)
+    return horizon, clairvoyant
+
+
+# ---------------------------------------------------------------------------------- report
+@dataclass(frozen=True)
+class ClaimsReport:
+    """The sections of ``infoseek claims``, each a list of printed lines.
+
+    Attributes:
+        summary: The summary table of every group (one text block).
+        claims: Claims A and B.
+        horizon: Receding horizon against pairwise-node.
+        clairvoyant: The clairvoyant reference against pairwise-node.
+        bound: The clairvoyant bound (``bearings_v0`` stores).
+        distance: The fits of time to localise against the initial distance (with its title).
+        baseline: Paired differences against a baseline store (with its title).
+    """
+
+    summary: str
+    claims: list[str]
+    horizon: list[str] = field(default_factory=list)
+    clairvoyant: list[str] = field(default_factory=list)
+    bound: list[str] = field(default_factory=list)
+    distance: list[str] = field(default_factory=list)
+    baseline: list[str] = field(default_factory=list)
+
+    def text(self) -> str:
+        """Everything, as ``infoseek claims`` prints it."""
+        sections = (self.claims, self.horizon, self.clairvoyant, self.bound, self.distance)
+        lines = [self.summary, "", *(line for section in sections for line in section)]
+        return "\n".join([*lines, *self.baseline])
+
+
+def claims_report(
+    directory: str | os.PathLike[str],
+    alpha: float = 0.05,
+    trials: int | None = None,
+    baseline: str | os.PathLike[str] | None = None,
+) -> ClaimsReport:
+    """The report of ``infoseek claims`` on the store in ``directory`` (module docstring).
+
+    Args:
+        directory: The store.
+        alpha: Significance level.
+        trials: Use only trials ``0..trials-1`` of every group.
+        baseline: Another store with the same environment, seed and episode length.
+
+    Raises:
+        ValueError: Bad ``alpha`` or ``trials``, an empty or unpaired store, an unpaired
+            baseline.
+    """
+    if not 0.0 < alpha < 1.0:
+        raise ValueError(f"--alpha must be in (0, 1), got {alpha}")
+    if trials is not None and trials < 1:
+        raise ValueError(f"--trials must be a positive number of trials, got {trials}")
+    config = read_manifest(directory)["config"]
+    check_results_directory(Path(directory))
+    records = read_trials(directory)
+    if trials is not None:
+        records = [r for r in records if r.trial < trials]
+    if not records:
+        raise ValueError(f"{directory}: the store holds no trials")
+    steps = int(config["steps"])
+    check_pairing(records)
+    others = None if baseline is None else _read_baseline(Path(baseline), config)
+    horizon, clairvoyant = reference_lines(records, steps, alpha)
+    bound_lines, bound, distance = _geometry_lines(records, config, steps)
+    return ClaimsReport(
+        summary=format_summary(summarise(records, steps), steps),
+        claims=paper_claim_lines(records, steps, alpha),
+        horizon=horizon,
+        clairvoyant=clairvoyant,
+        bound=bound_lines,
+        distance=distance,
+        baseline=[]
+        if others is None
+        else [
+            f"Against the baseline {baseline} (same seeds):",
+            "\n".join(baseline_lines(records, others, steps)),
+        ],
+    )
+
+
+def _geometry_lines(
+    records: Sequence[Trial], config: Mapping[str, Any], steps: int
+) -> tuple[list[str], dict[int, dict[int, float]] | None, list[str]]:
+    """The bound's lines and times (a ``bearings_v0`` store with true targets) and the
+    distance fits (any store with true targets)."""
+    if any(r.truth is None for r in records):
+        return [], None, []
+    env_kwargs = config.get("env_kwargs", {})
+    bound_lines: list[str] = []
+    bound = None
+    if config.get("env") == "bearings_v0":
+        bound_lines, bound = bound_report(records, env_kwargs, steps)
+    fleets = {r.n_agents for r in records}
+    centres = {n: start_centre(config["env"], env_kwargs, n) for n in fleets}
+    title = (
+        "Time to localise against the target's initial distance d0 from the fleet's mean "
+        "start position:"
+    )
+    return bound_lines, bound, [title, "\n".join(distance_lines(records, steps, centres, bound))]
+
+
+def _read_baseline(path: Path, config: Mapping[str, Any]) -> list[Any]:
+    """The trials of the store ``path``, checked to pair with ``config`` (same env, seed,
+    steps)."""
+    check_results_directory(path)
+    other = read_manifest(path)["config"]
     mine = (config["env"], config["seed"], config["steps"])
     if (other["env"], other["seed"], other["steps"]) != mine:
         raise ValueError(
-            f"--baseline {args.baseline}: env/seed/steps {other['env']}/{other['seed']}/"
+            f"--baseline {path}: env/seed/steps {other['env']}/{other['seed']}/"
             f"{other['steps']} differ from {mine[0]}/{mine[1]}/{mine[2]}: not paired"
         )
-    return read_records(args.baseline)
-
-
-def _print_paper_claims(
-    records: Sequence[Mapping[str, Any]],
-    groups: set[tuple[str, int]],
-    steps: int,
-    alpha: float,
-) -> None:
-    """Claim A (pairwise-node faster than single-node at n_v = 4, and at the other fleet sizes
-    both ran) and Claim B (more vehicles localise faster)."""
-    if {("single", 4), ("pairwise", 4)} <= groups:
-        print(_faster(records, "single", "pairwise", 4, steps, alpha, "Claim A"))
-        print(mean_mass_line(records, "single", "pairwise", 4, steps))
-        print(mass_bands(records, [("single", 4), ("pairwise", 4)]))
-    else:
-        print("Claim A: needs groups single/4 and pairwise/4")
-    for n in sorted(n for planner, n in groups if planner == "single" and n != 4):
-        if ("pairwise", n) in groups:
-            print(_faster(records, "single", "pairwise", n, steps, alpha, "  also"))
-    sizes = sorted(n for planner, n in groups if planner == "pairwise")
-    if len(sizes) >= 2:
-        print("\n".join(_claim_b(records, sizes, steps, alpha)))
-    else:
-        print("Claim B: needs pairwise groups with at least two fleet sizes")
+    return read_trials(path)
 
 
 def run_claims(args: argparse.Namespace) -> int:
-    """Print the summary table and the tests of claims A and B; returns the exit code."""
-    if not 0.0 < args.alpha < 1.0:
-        raise ValueError(f"--alpha must be in (0, 1), got {args.alpha}")
-    if args.trials is not None and args.trials < 1:
-        raise ValueError(f"--trials must be a positive number of trials, got {args.trials}")
-    manifest = read_manifest(args.directory)
-    check_results_directory(args.directory)
-    records = read_records(args.directory)
-    if args.trials is not None:
-        records = [r for r in records if int(r["trial"]) < args.trials]
-    if not records:
-        raise ValueError(f"{args.directory}: the store holds no trials")
-    steps = int(manifest["config"]["steps"])
-    _check_pairing(records)
-    baseline = _read_baseline(args, manifest["config"])
-    print(format_summary(summarise(records, steps), steps))
-    print()
-    groups = {(r["planner"], int(r["n_agents"])) for r in records}
-    _print_paper_claims(records, groups, steps, args.alpha)
-    for n in sorted(n for planner, n in groups if planner == "horizon"):
-        if ("pairwise", n) in groups:
-            print(_faster(records, "pairwise", "horizon", n, steps, args.alpha, "Horizon"))
-            print(paired_mass_gaps(records, "pairwise", "horizon", n, steps))
-    for n in sorted(n for planner, n in groups if planner == CLAIRVOYANT_LABEL):
-        if ("pairwise", n) in groups:
-            line = _faster(records, "pairwise", CLAIRVOYANT_LABEL, n, steps, args.alpha, "")
-            print("Clairvoyant reference (knows the target)" + line)
-    bound = None
-    if manifest["config"].get("env") == "bearings_v0" and all("truth" in r for r in records):
-        bound = _print_bound(records, manifest["config"].get("env_kwargs", {}), steps)
-    if all("truth" in r for r in records):
-        config = manifest["config"]
-        fleets = {int(r["n_agents"]) for r in records}
-        env_kwargs = config.get("env_kwargs", {})
-        centres = {n: start_centre(config["env"], env_kwargs, n) for n in fleets}
-        print(
-            "Time to localise against the target's initial distance d0 from the fleet's mean "
-            "start position:"
-        )
-        print("\n".join(distance_lines(records, steps, centres, bound)))
-    if baseline is not None:
-        print(f"Against the baseline {args.baseline} (same seeds):")
-        print("\n".join(baseline_lines(records, baseline, steps)))
+    """``infoseek claims DIR``: print :func:`claims_report`; returns the exit code."""
+    report = claims_report(args.directory, args.alpha, args.trials, args.baseline)
+    print(report.text())
     return 0
