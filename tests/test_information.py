@@ -373,3 +373,58 @@ def test_window_of_an_arc_wider_than_half_a_period_starting_far_from_the_first_p
     windowed = windowed_pair_entropies(kernel, side_a, side_b, particle_weights)
     full = full_grid_pair_entropies(kernel, predictions, partners, particle_weights)
     np.testing.assert_allclose(windowed, full, atol=1e-4, rtol=0)
+
+
+def _near_beacon_belief(n: int = 500) -> tuple[np.ndarray, np.ndarray]:
+    """A belief concentrated ~3 units from a receiver at (5, 5): the exact beacon's SNR there
+    reaches hundreds, beyond the 64 the Fourier table resolves by default."""
+    rng = np.random.default_rng(11)
+    particles = np.column_stack(
+        [rng.normal(8.0, 0.5, n), rng.normal(6.0, 0.5, n), rng.normal(1.0, 0.2, n)]
+    )
+    return particles, np.full(n, 1.0 / n)
+
+
+def test_exact_beacon_mi_beyond_the_resolved_snr_is_marked_and_warned_as_a_lower_bound():
+    """Issue 29: the auto estimate for the exact receiver near the beacon was silently low."""
+    from infoseek.planners.information.base import MILowerBoundWarning
+
+    sensor = BeaconSensor(moment=1000.0, noise_std=1.0)
+    particles, weights = _near_beacon_belief()
+    pose = np.array([[5.0, 5.0]])
+    with pytest.warns(MILowerBoundWarning, match="lower bound") as caught:
+        value = mutual_information(sensor, pose, particles, weights)
+    assert caught[0].filename == __file__  # attributed to the caller
+    _, shapes = sensor.kernel_parameters(pose, particles)  # brute force: the capped weight
+    assert value.lower_bound and value.unresolved_mass == pytest.approx(
+        float(weights[shapes[0] > 64.0].sum())
+    )
+    assert 0.1 < value.unresolved_mass < 1.0
+    reference = mutual_information(
+        sensor,
+        pose,
+        particles,
+        weights,
+        method="monte_carlo",
+        n_samples=20_000,
+        rng=np.random.default_rng(0),
+    )
+    assert float(value) < float(reference) - 3.0 * reference.stderr  # truly low, as marked
+    with pytest.warns(MILowerBoundWarning):
+        pairwise_mutual_information(sensor, pose, [[7.0, 4.0]], particles, weights)
+
+
+def test_a_resolved_beacon_mi_is_not_marked_and_does_not_warn():
+    import warnings
+
+    particles, weights = _near_beacon_belief()
+    floored = BeaconSensor(moment=1000.0, noise_std=1.0, max_snr=5.0)  # beacon_v0's filter
+    far = particles + np.array([25.0, 25.0, 0.0])  # SNR below 64 everywhere
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for sensor, belief in ((floored, particles), (BeaconSensor(1000.0, 1.0), far)):
+            value = mutual_information(sensor, [[5.0, 5.0]], belief, weights)
+            assert not value.lower_bound and value.unresolved_mass == 0.0
+        assert mutual_information(
+            floored, [[5.0, 5.0]], particles, weights, method="quantised"
+        ).lower_bound

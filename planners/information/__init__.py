@@ -47,6 +47,7 @@ or the functions :func:`mutual_information`, :func:`mutual_information_batch` an
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
@@ -59,6 +60,7 @@ from infoseek.planners.information.base import (
     JointEntropies,
     MIEstimate,
     MIEstimator,
+    MILowerBoundWarning,
     check_poses,
 )
 from infoseek.planners.information.fft import AdditiveFFTEstimator
@@ -76,6 +78,7 @@ __all__ = [
     "JointEntropies",
     "MIEstimate",
     "MIEstimator",
+    "MILowerBoundWarning",
     "make_estimator",
     "mutual_information",
     "mutual_information_batch",
@@ -157,6 +160,18 @@ def make_estimator(
     return cls(sensor, **accepted)
 
 
+def _options(
+    n_points: int | None,
+    edges: Any,
+    n_samples: int,
+    max_shape: float | None,
+    rng: np.random.Generator | None,
+) -> dict[str, Any]:
+    """The estimator options of the public functions (``None``: the estimator's default)."""
+    options = {"n_points": n_points, "edges": edges, "n_samples": n_samples, "rng": rng}
+    return options if max_shape is None else {**options, "max_shape": max_shape}
+
+
 def _estimate(
     sensor: Sensor,
     pose_sets: FloatArray,
@@ -164,11 +179,33 @@ def _estimate(
     weights: Any,
     method: str,
     options: dict[str, Any],
-) -> tuple[JointEntropies, str]:
+) -> tuple[JointEntropies, MIEstimator, FloatArray]:
+    """The joint entropies of ``pose_sets``, the estimator, and the ``(C,)`` unresolved mass
+    (warned about when positive)."""
     k = pose_sets.shape[1]
     estimator = make_estimator(method, sensor, n_observations=k, **options)
     estimator.check_observations(k)
-    return estimator.bind(particles, weights).joint_entropies(pose_sets), estimator.name
+    belief = estimator.bind(particles, weights)
+    result = belief.joint_entropies(pose_sets)
+    unresolved = estimator.unresolved_mass(belief, pose_sets)
+    _warn_if_bounded(estimator, unresolved, stacklevel=3)  # the public function's caller
+    return result, estimator, unresolved
+
+
+def _warn_if_bounded(estimator: MIEstimator, unresolved: FloatArray, stacklevel: int) -> None:
+    """An :class:`MILowerBoundWarning` when some particle's likelihood was not resolved,
+    attributed ``stacklevel`` frames up (the public function's caller)."""
+    worst = float(np.max(unresolved, initial=0.0))
+    if worst > 0.0:
+        warnings.warn(
+            f"MI estimator {estimator.name!r} did not resolve the likelihood of particles "
+            f"holding up to {worst:.3g} of the belief's weight (kernels sharper than its "
+            "max_shape option): the value is a lower bound of the exact MI. Raise max_shape, "
+            "or use method='monte_carlo' with an rng for an unbiased estimate with its "
+            "standard error.",
+            MILowerBoundWarning,
+            stacklevel=stacklevel + 1,
+        )
 
 
 def mutual_information(
@@ -181,6 +218,7 @@ def mutual_information(
     n_points: int | None = None,
     edges: Any | None = None,
     n_samples: int = 4096,
+    max_shape: float | None = None,
     rng: np.random.Generator | None = None,
 ) -> MIEstimate:
     """Joint MI (nats) between the target and the observations of sensors at ``poses``.
@@ -197,20 +235,35 @@ def mutual_information(
             estimator's own).
         edges: ``(Q + 1,)`` increasing bin edges for ``"quantised"`` (overrides ``n_points``).
         n_samples: Monte Carlo sample size (default 4096).
+        max_shape: Largest kernel shape ``"fourier"`` resolves (default: the sensor's bound,
+            or 64 for an unbounded one such as the exact beacon receiver); a particle beyond
+            it makes the value a lower bound, which is then marked and warned about.
         rng: Generator for ``"monte_carlo"`` (required there, unused otherwise).
 
     Returns:
-        An :class:`MIEstimate` (a ``float``) with ``stderr`` and ``method``.
+        An :class:`MIEstimate` (a ``float``) with ``stderr``, ``method`` and ``lower_bound``.
+
+    Warns:
+        MILowerBoundWarning: The value is only a lower bound because the estimator did not
+            resolve every particle's likelihood (``unresolved_mass`` says how much weight).
 
     Raises:
         ValueError: On malformed inputs, an unknown method, or Monte Carlo without ``rng``.
         TypeError: If a forced method needs an interface the sensor lacks.
     """
     poses = check_poses(sensor, poses, "poses", "(k, pose_dim)")
-    options = {"n_points": n_points, "edges": edges, "n_samples": n_samples, "rng": rng}
-    result, name = _estimate(sensor, poses[None], particles, weights, method, options)
+    options = _options(n_points, edges, n_samples, max_shape, rng)
+    result, estimator, unresolved = _estimate(
+        sensor, poses[None], particles, weights, method, options
+    )
     return MIEstimate(
-        result.values[0], result.stderrs[0], name, result.entropy[0], result.conditional[0]
+        result.values[0],
+        result.stderrs[0],
+        estimator.name,
+        result.entropy[0],
+        result.conditional[0],
+        unresolved_mass=unresolved[0],
+        lower_bound=estimator.lower_bound,
     )
 
 
@@ -224,6 +277,7 @@ def mutual_information_batch(
     n_points: int | None = None,
     edges: Any | None = None,
     n_samples: int = 4096,
+    max_shape: float | None = None,
     rng: np.random.Generator | None = None,
     return_stderr: bool = False,
 ) -> FloatArray | tuple[FloatArray, FloatArray]:
@@ -234,15 +288,18 @@ def mutual_information_batch(
         poses: ``(C, k, pose_dim)`` candidate pose sets.
         particles: ``(N, target_dim)`` belief particles.
         weights: ``(N,)`` particle weights.
-        method, n_points, edges, n_samples, rng: As in :func:`mutual_information`.
+        method, n_points, edges, n_samples, max_shape, rng: As in :func:`mutual_information`.
         return_stderr: Also return the ``(C,)`` standard errors.
 
     Returns:
         ``(C,)`` MI values in nats, or ``(values, stderrs)`` if ``return_stderr``.
+
+    Warns:
+        MILowerBoundWarning: As in :func:`mutual_information`, for any of the ``C`` sets.
     """
     poses = check_poses(sensor, poses, "poses", "(C, k, pose_dim)")
-    options = {"n_points": n_points, "edges": edges, "n_samples": n_samples, "rng": rng}
-    result, _ = _estimate(sensor, poses, particles, weights, method, options)
+    options = _options(n_points, edges, n_samples, max_shape, rng)
+    result, _, _ = _estimate(sensor, poses, particles, weights, method, options)
     return (result.values, result.stderrs) if return_stderr else result.values
 
 
@@ -257,6 +314,7 @@ def pairwise_mutual_information(
     n_points: int | None = None,
     edges: Any | None = None,
     n_samples: int = 4096,
+    max_shape: float | None = None,
     rng: np.random.Generator | None = None,
 ) -> FloatArray:
     """Pair MIs ``I(z_a, z_b; theta)`` for every pose in ``poses_a`` with every one in ``poses_b``.
@@ -270,11 +328,23 @@ def pairwise_mutual_information(
         poses_b: ``(M, pose_dim)`` poses (e.g. the other agents' planned next poses).
         particles: ``(N, target_dim)`` belief particles.
         weights: ``(N,)`` particle weights.
-        method, n_points, edges, n_samples, rng: As in :func:`mutual_information` (``k = 2``).
+        method, n_points, edges, n_samples, max_shape, rng: As in :func:`mutual_information`
+            (``k = 2``).
 
     Returns:
         ``(C, M)`` MI values in nats.
+
+    Warns:
+        MILowerBoundWarning: As in :func:`mutual_information`, for any of the ``C * M`` pairs.
     """
-    options = {"n_points": n_points, "edges": edges, "n_samples": n_samples, "rng": rng}
+    options = _options(n_points, edges, n_samples, max_shape, rng)
     estimator = make_estimator(method, sensor, n_observations=2, **options)
-    return estimator.bind(particles, weights).pairs(poses_a, poses_b)
+    belief = estimator.bind(particles, weights)
+    values = belief.pairs(poses_a, poses_b)
+    a = check_poses(sensor, poses_a, "poses_a", "(C, pose_dim)")
+    b = check_poses(sensor, poses_b, "poses_b", "(M, pose_dim)")
+    pairs = np.stack(np.broadcast_arrays(a[:, None, :], b[None, :, :]), axis=2)
+    _warn_if_bounded(
+        estimator, estimator.unresolved_mass(belief, pairs.reshape(-1, 2, a.shape[1])), 2
+    )
+    return values

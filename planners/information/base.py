@@ -43,6 +43,7 @@ __all__ = [
     "JointEntropies",
     "MIEstimate",
     "MIEstimator",
+    "MILowerBoundWarning",
     "check_belief",
     "check_poses",
     "single_many",
@@ -50,6 +51,11 @@ __all__ = [
 
 #: Bytes of per-pose work one :class:`BeliefMI` keeps before it forgets the oldest half.
 CACHE_BYTES = 256 << 20
+
+
+class MILowerBoundWarning(UserWarning):
+    """A mutual-information value is only a lower bound of the exact MI (the estimator did not
+    resolve every particle's likelihood); the message says how much weight and what to do."""
 
 
 class MIEstimate(float):
@@ -62,12 +68,19 @@ class MIEstimate(float):
             entropy of the bin index for ``"quantised"``, NaN for ``"monte_carlo"``.
         conditional_entropy: ``H(z | theta)`` (eq. 19) in the same sense; the value is
             ``entropy - conditional_entropy``.
+        unresolved_mass: Posterior weight of the particles whose likelihood the estimator did
+            not resolve at these poses (:meth:`MIEstimator.unresolved_mass`); ``0.0`` unless
+            the value is only a lower bound of the MI.
+        lower_bound: Whether the value is only a lower bound of the exact MI: the estimator
+            bounds by construction (``"quantised"``) or ``unresolved_mass > 0``.
     """
 
     stderr: float
     method: str
     entropy: float
     conditional_entropy: float
+    unresolved_mass: float
+    lower_bound: bool
 
     def __new__(
         cls,
@@ -76,12 +89,16 @@ class MIEstimate(float):
         method: str = "quadrature",
         entropy: float = math.nan,
         conditional_entropy: float = math.nan,
+        unresolved_mass: float = 0.0,
+        lower_bound: bool = False,
     ) -> MIEstimate:
         obj = super().__new__(cls, float(value))
         obj.stderr = float(stderr)
         obj.method = str(method)
         obj.entropy = float(entropy)
         obj.conditional_entropy = float(conditional_entropy)
+        obj.unresolved_mass = float(unresolved_mass)
+        obj.lower_bound = bool(lower_bound) or obj.unresolved_mass > 0.0
         return obj
 
     @property
@@ -192,6 +209,8 @@ class MIEstimator(ABC):
     options: ClassVar[tuple[str, ...]] = ()
     #: Whether values carry a sampling error.
     stochastic: ClassVar[bool] = False
+    #: Whether every value is only a lower bound of the MI (a coarsened observation).
+    lower_bound: ClassVar[bool] = False
 
     def __init__(self, sensor: Sensor) -> None:
         self.check_sensor(sensor)
@@ -243,6 +262,12 @@ class MIEstimator(ABC):
     def bind(self, particles: Any, weights: Any) -> BeliefMI:
         """This estimator applied to one belief (validated here, once)."""
         return BeliefMI(self, particles, weights)
+
+    def unresolved_mass(self, belief: BeliefMI, pose_sets: FloatArray) -> FloatArray:
+        """``(C,)`` posterior weight of the particles whose likelihood this estimator does not
+        resolve at some pose of each ``(C, k, pose_dim)`` set: where it is positive the value
+        is only a lower bound of the MI. Zero unless an estimator caps what it resolves."""
+        return np.zeros(pose_sets.shape[0])
 
     # -- the computations (arrays already validated)
     @abstractmethod

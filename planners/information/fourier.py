@@ -36,7 +36,11 @@ fourier_spectra`, NumPy's bits) and kept with the channels by the belief's
 ``(Q x N) (N x Q)`` matrix product. With ``beacon_v0``'s floor (``rho <= 5``): ``K = 17``,
 ``Q = 36``. Shapes above ``s_max`` (an unbounded sensor beyond ``max_shape``) use the kernel of
 ``s_max``: that is the MI of a receiver with its SNR capped at ``s_max``, a lower bound of the
-exact MI (data processing), and exact wherever no particle exceeds it.
+exact MI (data processing), and exact wherever no particle exceeds it. The estimator reports the
+weight of the capped particles (:meth:`ShiftKernelEstimator.unresolved_mass`), and the public
+functions (:func:`~infoseek.planners.information.mutual_information`, ...) mark such a value as
+a lower bound and warn (:class:`~infoseek.planners.information.base.MILowerBoundWarning`):
+the exact ``beacon`` receiver near the beacon is the case (its SNR is unbounded).
 """
 
 from __future__ import annotations
@@ -254,6 +258,19 @@ class ShiftKernelEstimator(MIEstimator):
         """``(P, Q, N)`` float32 channels (cell probabilities of every particle, cell axis first)
         and ``(P,)`` conditional entropies; cached per pose."""
         return self.cache(belief).channels(poses)
+
+    def unresolved_mass(self, belief: BeliefMI, pose_sets: FloatArray) -> FloatArray:
+        """``(C,)`` weight of the particles whose kernel shape exceeds the table's ``s_max`` at
+        some pose of each set: their SNR is capped there, so the value is a lower bound (module
+        docstring). Zero for a sensor whose shapes never exceed ``s_max``."""
+        n_sets, k, pose_dim = pose_sets.shape
+        if float(self.sensor.max_kernel_shape) <= self.table.max_shape:  # type: ignore[attr-defined]
+            return np.zeros(n_sets)
+        _, shape = self.sensor.kernel_parameters(  # type: ignore[attr-defined]
+            pose_sets.reshape(n_sets * k, pose_dim), belief.particles
+        )
+        capped = (np.asarray(shape).reshape(n_sets, k, -1) > self.table.max_shape).any(axis=1)
+        return np.asarray(capped @ belief.weights, dtype=np.float64)
 
     # -- estimates
     def singles(self, belief: BeliefMI, poses: FloatArray) -> FloatArray:

@@ -48,6 +48,7 @@ class QuantisedEstimator(ChannelEstimator):
     """
 
     name: ClassVar[str] = "quantised"
+    lower_bound: ClassVar[bool] = True
     required_methods: ClassVar[tuple[str, ...]] = ("bin_probabilities",)
     options: ClassVar[tuple[str, ...]] = ("n_points", "edges")
 
