@@ -68,6 +68,70 @@ def test_dependencies_point_one_way(layer: str) -> None:
                 )
 
 
+#: The top layer of experiments/: what combines studies (the command line, the results pages).
+EXPERIMENTS_TOP = {"cli.py", "reproduce.py", "launch.py", "__main__.py"}
+STUDIES = "infoseek.experiments.studies"
+
+
+def _study_imports(source: str, package: str) -> set[str]:
+    """The studies (module names in ``experiments/studies/``) that ``source``, a module of the
+    package ``package``, imports: absolute or relative, ``import``, ``from ... import`` of a
+    study or of the studies package itself (``"*"``: the whole subpackage)."""
+    found: set[str] = set()
+
+    def add(module: str, names: list[str]) -> None:
+        if module == STUDIES:
+            found.update(names or ["*"])
+        elif module.startswith(STUDIES + "."):
+            found.add(module[len(STUDIES) + 1 :].split(".")[0])
+        elif module == "infoseek.experiments" and "studies" in names:
+            found.add("*")
+
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                add(alias.name, [])
+        elif isinstance(node, ast.ImportFrom):
+            module = node.module or ""
+            if node.level:
+                base = package.split(".")[: len(package.split(".")) - node.level + 1]
+                module = ".".join([*base, module] if module else base)
+            add(module, [alias.name for alias in node.names])
+    return found
+
+
+def test_the_study_import_detector_finds_every_form() -> None:
+    assert _study_imports("from infoseek.experiments.studies import fig1, claims", "x") == {
+        "fig1",
+        "claims",
+    }
+    assert _study_imports("import infoseek.experiments.studies.ablation as a", "x") == {"ablation"}
+    assert _study_imports("from infoseek.experiments.studies.fig2 import f", "x") == {"fig2"}
+    assert _study_imports("from infoseek.experiments import studies", "x") == {"*"}
+    assert _study_imports("from . import beacon", STUDIES) == {"beacon"}
+    assert _study_imports("from .claims import f", STUDIES) == {"claims"}
+    assert _study_imports("from .studies.fig1 import p", "infoseek.experiments") == {"fig1"}
+    assert _study_imports("from infoseek.experiments.bench import BenchPlan", "x") == set()
+
+
+def test_no_study_imports_another_and_the_harness_imports_no_study() -> None:
+    """experiments/studies/__init__.py: a study imports the harness and the analysis, never
+    another study; no module of experiments/ below the top layer (the command line and the
+    results pages, which combine studies) imports a study."""
+    studies = ROOT / "experiments" / "studies"
+    names = {path.stem for path in studies.glob("*.py")} - {"__init__"}
+    assert {"fig1", "fig2", "beacon", "ablation", "decisions", "claims"} <= names
+    for path in sorted(studies.glob("*.py")):
+        imported = _study_imports(path.read_text(), STUDIES)
+        allowed = {path.stem} if path.stem in names else set()
+        assert imported <= allowed, f"studies/{path.name} imports the studies {imported}"
+    for path in sorted((ROOT / "experiments").glob("*.py")):
+        if path.name in EXPERIMENTS_TOP:
+            continue
+        imported = _study_imports(path.read_text(), "infoseek.experiments")
+        assert not imported, f"experiments/{path.name} imports the studies {imported}"
+
+
 def _quickstart() -> tuple[list[str], str]:
     """The Quickstart's bash lines and the prose after them (up to the next section)."""
     readme = (ROOT / "README.md").read_text()
