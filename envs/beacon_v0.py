@@ -127,9 +127,11 @@ infoseek.envs.beacon_v0.parallel_env(
   likelihood as if the field noise were inflated wherever the signal-to-noise ratio
   ``|H| / noise_std`` exceeds 5 (angular std floor ~0.2 rad), because within a few units of the
   beacon the exact likelihood is far sharper than the 2000 particles can resolve (see
-  :mod:`infoseek.envs.search_env`, "Filter noise floor"). The measurements and the planners'
-  sensor model are exact. `None` evaluates the exact likelihood in the filters as well (the
-  floor is a filter setting that the paper does not specify, a documented deviation).
+  :mod:`infoseek.envs.search_env`, "Filter noise floor"). The measurements are exact; the
+  planners score with the filters' likelihood, floor included (``Planner.from_env`` copies
+  ``env.unwrapped.config.filter_sensor``), so they plan with what the beliefs apply. `None`
+  evaluates the exact likelihood in the filters, and so in the planners, as well (the floor is
+  a filter setting that the paper does not specify, a documented deviation).
 * `belief_grid` ((8, 8)); `localization_radius` (1.0 unit); `localization_mass` (0.9);
   `terminate_on_localization` (False).
 * `comm_range` (inf units), `message_loss` (0.0): communication model; an agent always
