@@ -8,7 +8,7 @@ from pathlib import Path
 
 from infoseek.experiments.analysis import GroupSummary, summarise
 from infoseek.experiments.columns import read_trials
-from infoseek.experiments.pages.commands import bench_commands
+from infoseek.experiments.pages.bench_commands import bench_commands
 from infoseek.experiments.pages.markdown import code_block, display_path, figure, page_text
 from infoseek.experiments.pages.provenance import provenance_section, read_provenance
 from infoseek.experiments.pages.report import baselines_bullet, by_group, metric_paragraph, verdict

@@ -7,7 +7,7 @@ import os
 from pathlib import Path
 
 from infoseek.experiments.clairvoyant import CLAIRVOYANT_LABEL
-from infoseek.experiments.pages.commands import bench_commands
+from infoseek.experiments.pages.bench_commands import bench_commands
 from infoseek.experiments.pages.markdown import code_block, display_path, page_text
 from infoseek.experiments.pages.provenance import read_provenance
 from infoseek.experiments.pages.report import percent_in, verdict_line
