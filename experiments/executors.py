@@ -165,7 +165,7 @@ def _pooled(
         fill()
         while pending:
             done, _ = wait(pending, return_when=FIRST_COMPLETED)
-            lost = yield from _collect(done, pending, executor)
+            lost = yield from _collect(done, pending)
             if lost:
                 _count_deaths(lost, deaths)
                 stop(executor, False)
@@ -180,7 +180,6 @@ def _pooled(
 def _collect(
     done: set[Future[TrialRecord]],
     pending: dict[Future[TrialRecord], TrialSpec],
-    executor: Executor,
 ) -> Generator[tuple[TrialSpec, TrialRecord], None, list[TrialSpec]]:
     """Yield the finished trials of ``done`` (removed from ``pending``); returns the specs whose
     worker died. Once one has, every trial still pending on the broken executor is waited for

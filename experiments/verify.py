@@ -48,7 +48,7 @@ ATOL = 1e-6
 
 def stored_trial_spec(
     config: Mapping[str, Any],
-    record: Mapping[str, Any],
+    record: TrialRecord,
     store: str | os.PathLike[str] = ".",
 ) -> TrialSpec:
     """The :class:`~infoseek.experiments.trial.TrialSpec` that reproduces a stored record.
@@ -58,17 +58,17 @@ def stored_trial_spec(
         record: One stored trial record.
         store: The store's directory (trained-policy labels are relative to it).
     """
-    planner = str(record["planner"])
+    planner = record.planner
     model_file = str(policy_file(planner, store)) if is_policy(planner) else None
     return TrialSpec(
         env=str(config["env"]),
         env_kwargs=dict(config["env_kwargs"]),
         steps=int(config["steps"]),
-        planner=str(record["planner"]),
-        n_agents=int(record["n_agents"]),
-        trial=int(record["trial"]),
-        env_seed=int(record["env_seed"]),
-        policy_seed=int(record["policy_seed"]),
+        planner=planner,
+        n_agents=record.n_agents,
+        trial=record.trial,
+        env_seed=record.env_seed,
+        policy_seed=record.policy_seed,
         model_file=model_file,
     )
 
@@ -110,15 +110,16 @@ def _close(a: Any, b: Any) -> bool:
     return a == b
 
 
-def compare_records(stored: Mapping[str, Any], rerun: TrialRecord) -> Comparison:
-    """Compare a rerun record (brought into stored form) with the stored row (module doc)."""
+def compare_records(stored: TrialRecord, rerun: TrialRecord) -> Comparison:
+    """Compare a rerun record (brought into stored form) with the stored one (module doc)."""
     rerun_row = as_stored([json.loads(encode_record(rerun.to_row()))])[0]
-    fields = sorted((set(stored) | set(rerun_row)) - TIMING_FIELDS)
+    stored_row = stored.to_row()
+    fields = sorted((set(stored_row) | set(rerun_row)) - TIMING_FIELDS)
     differing: list[str] = []
     first_step: int | None = None
     noise = 0.0
     for field in fields:
-        a, b = rerun_row.get(field, ...), stored.get(field, ...)
+        a, b = rerun_row.get(field, ...), stored_row.get(field, ...)
         if isinstance(a, list) and isinstance(b, list):
             bad = [t for t, (x, y) in enumerate(zip(a, b, strict=False)) if not _close(x, y)]
             if len(a) != len(b):
@@ -185,13 +186,15 @@ def verify_store(
         How many records were checked and which were not reproduced.
 
     Raises:
-        ValueError: ``trials`` is not positive, or a requested group is not stored.
+        ValueError: ``trials`` is not positive, a requested group is not stored, or a stored
+            trial lacks a field of the record's schema
+            (:class:`~infoseek.experiments.record.TrialRecord`).
     """
     if trials is not None and trials < 1:
         raise ValueError(f"--trials must be a positive number of trials, got {trials}")
     config = read_manifest(directory)["config"]
-    records = read_rows(directory)
-    stored_groups = {(str(r["planner"]), int(r["n_agents"])) for r in records}
+    records = [TrialRecord.from_row(row) for row in read_rows(directory)]
+    stored_groups = {record.group for record in records}
     wanted = stored_groups if groups is None else set(groups)
     missing = sorted(wanted - stored_groups)
     if missing:
@@ -201,10 +204,9 @@ def verify_store(
             + f"; stored: {', '.join(f'{p}/{n}' for p, n in sorted(stored_groups))}"
         )
     selected = {
-        r["key"]: r
-        for r in records
-        if (str(r["planner"]), int(r["n_agents"])) in wanted
-        and (trials is None or int(r["trial"]) < trials)
+        record.key: record
+        for record in records
+        if record.group in wanted and (trials is None or record.trial < trials)
     }
     specs = [stored_trial_spec(config, record, directory) for record in selected.values()]
     for spec in specs:

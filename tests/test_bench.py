@@ -27,6 +27,7 @@ from infoseek.experiments.analysis import (
 )
 from infoseek.experiments.bench import BenchPlan, run_bench
 from infoseek.experiments.columns import TrialView
+from infoseek.experiments.environments import make_env
 from infoseek.experiments.policies import check_policy_path
 from infoseek.experiments.record import TIMING_FIELDS, TrialRecord
 from infoseek.experiments.seeds import trial_seeds
@@ -69,6 +70,38 @@ class SleepyRandomPolicy:
 def sleepy_random_policy(env: Any, seed: int | None = None, **options: Any) -> SleepyRandomPolicy:
     """Planner factory usable as ``--planner test_bench:sleepy_random_policy``."""
     return SleepyRandomPolicy(env, seed=seed)
+
+
+class DyingRandomPolicy(SleepyRandomPolicy):
+    """The random policy, whose worker process kills itself (SIGKILL) at step 2 of a trial
+    whose policy seed is listed in ``INFOSEEK_TEST_KILL_SEEDS``, once per trial: a marker file
+    in ``INFOSEEK_TEST_KILL_DIR`` records the death, and the retry runs the trial to its end
+    (with ``INFOSEEK_TEST_KILL_ALWAYS=1``, every attempt dies). The actions are the random
+    policy's, killed or not."""
+
+    def __init__(self, env: Any, seed: int | None = None) -> None:
+        super().__init__(env, seed=seed)
+        listed = os.environ.get("INFOSEEK_TEST_KILL_SEEDS", "")
+        self.doomed = seed is not None and str(seed) in listed.split(",")
+        self.always = os.environ.get("INFOSEEK_TEST_KILL_ALWAYS") == "1"
+        self.marker = Path(os.environ.get("INFOSEEK_TEST_KILL_DIR", ".")) / f"killed-{seed}"
+        self.steps = 0
+
+    def act(self, observations: dict, infos: dict) -> dict:
+        self.steps += 1
+        if self.doomed and self.steps == 2:
+            try:
+                self.marker.touch(exist_ok=self.always)
+            except FileExistsError:  # this trial's worker died once already
+                pass
+            else:
+                os.kill(os.getpid(), signal.SIGKILL)
+        return super().act(observations, infos)
+
+
+def dying_random_policy(env: Any, seed: int | None = None, **options: Any) -> DyingRandomPolicy:
+    """Planner factory usable as ``--planner test_bench:dying_random_policy``."""
+    return DyingRandomPolicy(env, seed=seed)
 
 
 def tiny_plan(trials: int = 3, groups: list[tuple[str, int]] | None = None) -> BenchPlan:
@@ -212,6 +245,38 @@ def test_trial_record_matches_the_environment(reference: dict[str, TrialRecord])
     assert all(s > 0 for s in record.min_separation)
     final_estimate = env.unwrapped.agent_belief("vehicle_0").mmse()[:2]
     assert record.error_agent0[-1] == pytest.approx(np.linalg.norm(final_estimate - truth[:2]))
+
+
+# ------------------------------------------------------------------------------ environments
+def test_a_default_spelled_out_is_the_stored_configuration_of_no_keyword(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--env-kwarg roughening=<its default>`` is the configuration of no keyword: the store
+    written without it resumes with it (the default read off a built environment's config)."""
+    from infoseek.envs import make
+    from infoseek.experiments.cli import main
+
+    default = make("bearings_v0", n_particles=100).unwrapped.config.roughening
+    spelled = BenchPlan("bearings_v0", {"roughening": default}, 3, 0, [("random", 1)], 1)
+    assert spelled.config() == BenchPlan("bearings_v0", {}, 3, 0, [("random", 1)], 1).config()
+    other = BenchPlan("bearings_v0", {"roughening": default + 0.1}, 3, 0, [("random", 1)], 1)
+    assert other.config()["env_kwargs"] == {"roughening": pytest.approx(default + 0.1)}
+    argv = ["bench", "--planner", "random", "--agents", "1", "--trials", "2", "--steps", "2"]
+    argv += ["--particles", "100", "--workers", "1", "--no-progress", "--out", str(tmp_path)]
+    assert main(argv) == 0
+    capsys.readouterr()
+    assert main([*argv, "--env-kwarg", f"roughening={default}"]) == 0
+    assert "0 trial(s) run, 2 of 2 already stored" in capsys.readouterr().out
+
+
+def test_make_env_passes_belief_in_infos_to_the_constructor() -> None:
+    """The harness's environments put every belief in the infos through their config (no
+    attribute set on the environment, which would differ from its config)."""
+    env = make_env("bearings_v0", n_agents=2, n_particles=100)
+    assert env.unwrapped.config.belief_in_infos is True
+    assert "belief_in_infos" not in vars(env.unwrapped)
+    _, infos = env.reset(seed=1)
+    assert all(infos[agent]["belief"] == env.unwrapped.belief(agent) for agent in env.agents)
 
 
 # ------------------------------------------------------------------------------------ store
@@ -498,6 +563,96 @@ def test_ray_backend_gives_identical_records(
     result = run_bench(tiny_plan(), tmp_path, backend="ray", workers=2, progress=False)
     assert result.ran == 9
     assert deterministic(read_records(tmp_path)) == deterministic(list(reference.values()))
+
+
+DYING = "test_bench:dying_random_policy"
+
+
+def _run_with_killed_workers(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, backend: str
+) -> tuple[list[TrialRecord], list[str]]:
+    """Run a plan of 4 trials on ``backend`` (2 workers) with the workers of trials 1 and 2
+    killed mid-trial; returns the stored records and the markers of the deaths."""
+    plan = tiny_plan(trials=4, groups=[(DYING, 2)])
+    doomed = [spec.policy_seed for spec in plan.specs() if spec.trial in (1, 2)]
+    markers = tmp_path / "markers"
+    markers.mkdir()
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(TESTS_DIR), *sys.path]))
+    monkeypatch.setenv("INFOSEEK_TEST_KILL_SEEDS", ",".join(map(str, doomed)))
+    monkeypatch.setenv("INFOSEEK_TEST_KILL_DIR", str(markers))
+    out = tmp_path / "killed"
+    result = run_bench(plan, out, backend=backend, workers=2, progress=False)
+    assert (result.ran, result.skipped) == (4, 0)
+    return read_records(out), sorted(p.name for p in markers.iterdir())
+
+
+def _unkilled_reference(tmp_path: Path) -> dict[str, dict[str, Any]]:
+    """The same 4 trials run serially, no worker killed."""
+    plan = tiny_plan(trials=4, groups=[(DYING, 2)])
+    run_bench(plan, tmp_path / "reference", backend="serial", progress=False)
+    return deterministic(read_records(tmp_path / "reference"))
+
+
+@pytest.mark.parametrize("backend", ["process", "concurrent.futures:ProcessPoolExecutor"])
+def test_a_trial_whose_worker_died_is_rerun_and_stored_once(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, backend: str
+) -> None:
+    """Two workers SIGKILLed mid-trial (the process pool, and any Executor given as
+    module:factory, breaks): the trials in flight are resubmitted to a fresh pool, and the
+    store ends with every trial exactly once, each equal to an uninterrupted serial run."""
+    records, deaths = _run_with_killed_workers(tmp_path, monkeypatch, backend)
+    assert len(deaths) == 2  # both doomed trials did kill their worker once
+    keys = store.part_keys(tmp_path / "killed")
+    assert sorted(keys) == [f"{DYING}/agents=2/trial={k}" for k in range(4)]
+    monkeypatch.delenv("INFOSEEK_TEST_KILL_SEEDS")
+    assert deterministic(records) == _unkilled_reference(tmp_path)
+
+
+@pytest.mark.ray
+def test_ray_retries_a_trial_whose_worker_died(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Ray reruns a task whose worker was SIGKILLed (max_retries > 0); no trial lost or
+    stored twice."""
+    pytest.importorskip("ray")
+    records, deaths = _run_with_killed_workers(tmp_path, monkeypatch, "ray")
+    assert len(deaths) == 2
+    keys = store.part_keys(tmp_path / "killed")
+    assert sorted(keys) == [f"{DYING}/agents=2/trial={k}" for k in range(4)]
+    monkeypatch.delenv("INFOSEEK_TEST_KILL_SEEDS")
+    assert deterministic(records) == _unkilled_reference(tmp_path)
+
+
+def test_a_worker_that_keeps_dying_fails_the_run_naming_its_trial(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A trial whose worker dies more than MAX_RETRIES times is reported with its seeds; the
+    trials finished before are stored."""
+    monkeypatch.setattr(executors, "MAX_RETRIES", 1)
+    plan = tiny_plan(trials=2, groups=[(DYING, 2)])
+    doomed = plan.specs()[1]
+    markers = tmp_path / "markers"
+    markers.mkdir()
+    monkeypatch.setenv("INFOSEEK_TEST_KILL_SEEDS", str(doomed.policy_seed))
+    monkeypatch.setenv("INFOSEEK_TEST_KILL_DIR", str(markers))
+    monkeypatch.setenv("INFOSEEK_TEST_KILL_ALWAYS", "1")
+    factory = "concurrent.futures:ProcessPoolExecutor"
+    with pytest.raises(executors.TrialFailedError, match="its worker died 2 times") as error:
+        run_bench(plan, tmp_path / "out", backend=factory, workers=1, progress=False)
+    assert doomed.describe() in str(error.value)
+    assert store.part_keys(tmp_path / "out") == [f"{DYING}/agents=2/trial=0"]
+
+
+def test_an_executor_factory_backend_gives_identical_records(
+    tmp_path: Path, reference: dict[str, TrialRecord]
+) -> None:
+    """``--backend module:factory``: any concurrent.futures.Executor, built with max_workers."""
+    factory = "concurrent.futures:ThreadPoolExecutor"
+    result = run_bench(tiny_plan(), tmp_path, backend=factory, workers=2, progress=False)
+    assert result.ran == 9
+    assert deterministic(read_records(tmp_path)) == deterministic(list(reference.values()))
+    with pytest.raises(ValueError, match="has no 'NoSuchExecutor'"):
+        run_bench(tiny_plan(), tmp_path, backend="concurrent.futures:NoSuchExecutor")
 
 
 def test_killed_cli_run_resumes_to_the_uninterrupted_result(tmp_path: Path) -> None:
