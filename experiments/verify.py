@@ -161,6 +161,33 @@ class VerifyResult:
     largest_noise: float = 0.0
 
 
+def _selected_records(
+    directory: str | os.PathLike[str],
+    trials: int | None,
+    groups: Sequence[tuple[str, int]] | None,
+) -> dict[str, TrialRecord]:
+    """The stored records :func:`verify_store` reruns, by key (its arguments).
+
+    Raises:
+        ValueError: A requested group is not stored.
+    """
+    records = [TrialRecord.from_row(row) for row in read_rows(directory)]
+    stored_groups = {record.group for record in records}
+    wanted = stored_groups if groups is None else set(groups)
+    missing = sorted(wanted - stored_groups)
+    if missing:
+        raise ValueError(
+            f"{directory}: no stored trials of group(s) "
+            + ", ".join(f"{p}/{n}" for p, n in missing)
+            + f"; stored: {', '.join(f'{p}/{n}' for p, n in sorted(stored_groups))}"
+        )
+    return {
+        record.key: record
+        for record in records
+        if record.group in wanted and (trials is None or record.trial < trials)
+    }
+
+
 def verify_store(
     directory: str | os.PathLike[str],
     *,
@@ -193,21 +220,7 @@ def verify_store(
     if trials is not None and trials < 1:
         raise ValueError(f"--trials must be a positive number of trials, got {trials}")
     config = read_manifest(directory)["config"]
-    records = [TrialRecord.from_row(row) for row in read_rows(directory)]
-    stored_groups = {record.group for record in records}
-    wanted = stored_groups if groups is None else set(groups)
-    missing = sorted(wanted - stored_groups)
-    if missing:
-        raise ValueError(
-            f"{directory}: no stored trials of group(s) "
-            + ", ".join(f"{p}/{n}" for p, n in missing)
-            + f"; stored: {', '.join(f'{p}/{n}' for p, n in sorted(stored_groups))}"
-        )
-    selected = {
-        record.key: record
-        for record in records
-        if record.group in wanted and (trials is None or record.trial < trials)
-    }
+    selected = _selected_records(directory, trials, groups)
     specs = [stored_trial_spec(config, record, directory) for record in selected.values()]
     for spec in specs:
         _check_model_file(spec)
