@@ -12,8 +12,10 @@ Subcommands:
   (:mod:`infoseek.experiments.bench`, :mod:`infoseek.experiments.store`), then a summary table.
 * ``infoseek plot DIR``: the paper's Fig. 1 from a results store
   (:mod:`infoseek.experiments.plot`).
-* ``infoseek reproduce STUDY``: the trials and figures of a study
+* ``infoseek reproduce STUDY``: the trials, figures and results page of a study
   (:mod:`infoseek.experiments.reproduce`, the studies in :mod:`infoseek.experiments.studies`).
+* ``infoseek page STUDY``: rewrite a study's results page from its stored results
+  (:mod:`infoseek.experiments.pages`).
 * ``infoseek claims DIR``: paired statistical tests of the paper's Fig. 1 claims on stored
   trials (:mod:`infoseek.experiments.studies.claims`).
 * ``infoseek verify DIR``: rerun stored trials from their seeds and report the records the
@@ -58,6 +60,7 @@ from infoseek.experiments.commands import (
     run_plan,
 )
 from infoseek.experiments.demo import add_demo_arguments, run_demo
+from infoseek.experiments.pages.command import add_page_arguments, run_page_command
 from infoseek.experiments.policies import PLANNER_NAMES
 from infoseek.experiments.reproduce import add_reproduce_arguments, run_reproduce_command
 from infoseek.experiments.store import StoreWarning
@@ -342,6 +345,12 @@ def build_parser() -> argparse.ArgumentParser:
             "run a study (the paper's Fig. 1 or 2, beacon, ablation) and draw its figures",
             add_reproduce_arguments,
             run_reproduce_command,
+        ),
+        (
+            "page",
+            "rewrite a study's results page from its stored results (runs no trial)",
+            add_page_arguments,
+            run_page_command,
         ),
         (
             "claims",

@@ -9,16 +9,20 @@ Part of the command line's top layer: each study lives in :mod:`infoseek.experim
 * ``ablation``: the Claim A ablation with the decisions study
   (:mod:`~infoseek.experiments.studies.ablation`, :mod:`~infoseek.experiments.studies.decisions`).
 
-Trial studies resume: a rerun with every trial stored only redraws.
+Trial studies resume: a rerun with every trial stored only redraws. Every study ends by writing
+its results page (``--page FILE``, default ``OUT/page.md``; :mod:`infoseek.experiments.pages`).
 """
 
 from __future__ import annotations
 
 import argparse
+import time
 from pathlib import Path
 
-from infoseek.experiments.arguments import check_seed, check_writable_directory
+from infoseek.experiments.arguments import check_seed, check_writable_directory, check_writable_file
 from infoseek.experiments.commands import add_execution_arguments, execution, run_plan
+from infoseek.experiments.pages.fig2_record import write_fig2_record
+from infoseek.experiments.pages.registry import MIN_PAGE_TRIALS, write_page
 from infoseek.experiments.plot import plot_fig1_from_store
 from infoseek.experiments.studies import ablation, decisions, fig2
 from infoseek.experiments.studies.beacon import beacon_plan
@@ -54,6 +58,9 @@ def add_reproduce_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--out", type=Path, default=None, help="output directory (default infoseek-out/FIGURE)"
     )
+    parser.add_argument(
+        "--page", type=Path, default=None, help="the results page to write (default OUT/page.md)"
+    )
     add_execution_arguments(parser)
 
 
@@ -66,7 +73,16 @@ def run_reproduce_command(args: argparse.Namespace) -> int:
     check_seed(args.seed)
     out = args.out if args.out is not None else Path("infoseek-out") / args.figure
     check_writable_directory(out)
-    return _run_study(out, args)
+    page = args.page if args.page is not None else out / "page.md"
+    check_writable_file(page, "--page")
+    paged = args.figure == "fig2" or args.trials is None or args.trials >= MIN_PAGE_TRIALS
+    if not paged:
+        print(f"reproduce: no results page with --trials {args.trials} (its paired tests need")
+        print(f"  at least {MIN_PAGE_TRIALS} trials per group)")
+    code = _run_study(out, args)
+    if code == 0 and paged:
+        print(f"wrote {write_page(args.figure, out, page)}")
+    return code
 
 
 def _run_study(out: Path, args: argparse.Namespace) -> int:
@@ -93,13 +109,19 @@ def _fig2(out: Path, args: argparse.Namespace) -> int:
     """``infoseek reproduce fig2``: the episode, its figure and the snapshot masses."""
     if args.backend is not None or args.workers is not None or args.address:
         print("reproduce fig2: one episode; --backend/--workers/--address are ignored")
+    started = time.perf_counter()
     result = fig2.reproduce_fig2(out, steps=args.steps, particles=args.particles, seed=args.seed)
+    elapsed = time.perf_counter() - started
     x, y, psi = result.truth
     print(f"fig2: episode seed {result.env_seed}; beacon at ({x:.2f}, {y:.2f}), psi {psi:.4f}")
     for step, mass in sorted(result.snapshot_masses.items()):
         print(f"  t = {step:>2}: posterior mass within 1 unit (agent 0) {mass:.3f}")
     for path in result.paths:
         print(f"wrote {path}")
+    record = write_fig2_record(
+        out, result, seed=args.seed, steps=args.steps, particles=args.particles, wall_time=elapsed
+    )
+    print(f"wrote {record}")
     return 0
 
 

@@ -23,6 +23,7 @@ COMMANDS = {
     "bench": ["bench"],
     "plot": ["plot", "x"],
     "reproduce": ["reproduce", "fig2"],
+    "page": ["page", "fig1"],
     "claims": ["claims", "x"],
     "verify": ["verify", "x"],
     "train": ["train", "--timesteps", "1", "--out", "x"],
