@@ -41,7 +41,7 @@ from infoseek.experiments.policy_labels import display_name, is_policy, policy_f
 from infoseek.experiments.progress import progress_bar
 from infoseek.experiments.record import TrialRecord
 from infoseek.experiments.seeds import trial_seeds
-from infoseek.experiments.store import ResultsStore, read_rows
+from infoseek.experiments.store import ResultsStore, read_records
 from infoseek.experiments.trial import TrialSpec
 
 __all__ = ["BenchPlan", "BenchResult", "plan_bench", "run_bench"]
@@ -291,7 +291,7 @@ def run_bench(
             bar.close()
             if ran:
                 store.record_run(_run_summary(backend, workers, ran, started))
-    stored = (TrialRecord.from_row(row) for row in read_rows(out))  # float32 series
+    stored = read_records(out)  # float32 series
     records = [r for r in stored if plan.wants(r.planner, r.n_agents, r.trial)]
     return BenchResult(
         records=records, ran=ran, skipped=skipped, wall_time=time.perf_counter() - started

@@ -99,7 +99,7 @@ from infoseek.experiments.checksums import (
     encode_checked_line,
     encode_sealed,
 )
-from infoseek.experiments.record import trial_key
+from infoseek.experiments.record import TrialRecord, trial_key
 
 FORMAT = "infoseek-bench-store"
 FORMAT_VERSION = 3
@@ -433,6 +433,19 @@ def read_rows(directory: str | os.PathLike[str]) -> list[dict[str, Any]]:
     """
     tables, journal = read_columns(directory)
     return _merge([row for table in tables for row in table.to_pylist()], journal)
+
+
+def read_records(directory: str | os.PathLike[str]) -> list[TrialRecord]:
+    """Every complete trial of the store in ``directory`` as a
+    :class:`~infoseek.experiments.record.TrialRecord` (:func:`read_rows`, typed; series in
+    stored precision).
+
+    Raises:
+        StoreConfigError: No results store in ``directory``.
+        StoreCorruptError: Any file of the store is damaged (the message names it).
+        ValueError: A stored trial lacks a field of the record's schema.
+    """
+    return [TrialRecord.from_row(row) for row in read_rows(directory)]
 
 
 def read_columns(

@@ -38,7 +38,7 @@ from infoseek.experiments.executors import execute
 from infoseek.experiments.policy_labels import display_name, is_policy, policy_file
 from infoseek.experiments.progress import progress_bar
 from infoseek.experiments.record import TIMING_FIELDS, TrialRecord
-from infoseek.experiments.store import as_stored, encode_record, read_manifest, read_rows
+from infoseek.experiments.store import as_stored, encode_record, read_manifest, read_records
 from infoseek.experiments.trial import TrialSpec
 
 #: Relative and absolute tolerance of the comparison (module docstring).
@@ -171,7 +171,7 @@ def _selected_records(
     Raises:
         ValueError: A requested group is not stored.
     """
-    records = [TrialRecord.from_row(row) for row in read_rows(directory)]
+    records = read_records(directory)
     stored_groups = {record.group for record in records}
     wanted = stored_groups if groups is None else set(groups)
     missing = sorted(wanted - stored_groups)

@@ -36,6 +36,7 @@ from infoseek.experiments.store import (
     StoreConfigError,
     StoreCorruptError,
     StoreLockedError,
+    read_records,
     read_rows,
 )
 from infoseek.experiments.trial import TrialSpec, min_separation, position_metrics, run_trial
@@ -113,11 +114,6 @@ def tiny_plan(trials: int = 3, groups: list[tuple[str, int]] | None = None) -> B
         groups=groups or [("random", 1), ("random", 3), ("single", 2)],
         trials=trials,
     )
-
-
-def read_records(directory: Path) -> list[TrialRecord]:
-    """The stored trials of the store in ``directory``, as records."""
-    return [TrialRecord.from_row(row) for row in read_rows(directory)]
 
 
 def deterministic(records: list[TrialRecord]) -> dict[str, dict[str, Any]]:

@@ -24,14 +24,9 @@ from infoseek.experiments.store import (
     PARTS_NAME,
     TRIALS_NAME,
     read_manifest,
-    read_rows,
+    read_records,
 )
 from infoseek.experiments.studies.claims import distance_lines, mass_bands, start_centre
-
-
-def read_records(directory: Path) -> list[TrialRecord]:
-    """The stored trials of the store in ``directory``, as records."""
-    return [TrialRecord.from_row(row) for row in read_rows(directory)]
 
 
 def _view(
