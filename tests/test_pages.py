@@ -5,6 +5,7 @@ store's data; the provenance says what the manifest records, and only that."""
 from __future__ import annotations
 
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -140,3 +141,45 @@ def test_reproduce_writes_its_page(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     for step, mass in record["snapshot_masses"].items():
         assert f"| {step} | {mass:.3f} |" in page
     assert "![Fig. 2 reproduction](../out/fig2.png)" in page
+
+
+#: A number as the documents quote results: ``21.11``, ``3.3 %``, ``+0.59``.
+_NUMBER = re.compile(r"(?<![\w.])[+-]?\d+\.\d+(?![\w.])")
+_PAGE_LINK = re.compile(r"results/(\w+)\.md")
+_FIGURE = re.compile(r"experiments/results/(\w+)/\w+\.png")
+
+
+def _quoting_paragraphs() -> list[tuple[str, str, str]]:
+    """``(document, paragraph, page)`` for every paragraph or list item outside
+    ``docs/results/`` that quotes a decimal number and names a results page (a link to it, or its
+    figure just above). The Performance page is left out: its numbers are timings, each with the
+    ``infoseek timing`` command that measured it, not study results."""
+    documents = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+    found = []
+    for path in documents:
+        name = path.relative_to(ROOT).as_posix()
+        if name.startswith("docs/results/") or name == "docs/performance.md":
+            continue
+        figure_page = None
+        for paragraph in re.split(r"\n\s*\n|\n(?=\* )", path.read_text()):
+            figure = _FIGURE.search(paragraph)
+            if figure:
+                figure_page = figure.group(1)
+            pages = [p for p in _PAGE_LINK.findall(paragraph) if p != "index"] or (
+                [figure_page] if figure_page and not paragraph.startswith(("|", "#")) else []
+            )
+            if pages and _NUMBER.search(paragraph) and not paragraph.lstrip().startswith("|"):
+                found.append((name, paragraph, pages[0]))
+    return found
+
+
+def test_results_quoted_outside_the_results_pages_are_on_their_page() -> None:
+    """A results number quoted in the README or another docs page (the Fig. 1 summary, the
+    horizon planner's gains) is the number the results page it points to prints: it cannot
+    outlive a regenerated page."""
+    quoting = _quoting_paragraphs()
+    assert {document for document, _, _ in quoting} >= {"README.md", "docs/planners.md"}
+    for document, paragraph, page in quoting:
+        text = (ROOT / "docs" / "results" / f"{page}.md").read_text()
+        missing = [n.lstrip("+") for n in _NUMBER.findall(paragraph) if n.lstrip("+") not in text]
+        assert not missing, f"{document} quotes {missing}, which docs/results/{page}.md lacks"

@@ -1,4 +1,5 @@
-"""Every code block of README.md runs (issue 28: the make_vec + PPO snippet failed as a script).
+"""Every code block of README.md and of the documentation pages (docs/**/*.md) runs (issue 28:
+the make_vec + PPO snippet failed as a script).
 
 * ``python`` blocks are run as scripts (``python FILE``, so a block that starts worker
   processes without an ``if __name__ == "__main__":`` guard fails as it would for a reader), at
@@ -7,7 +8,9 @@
 * ``bash`` blocks and every ``infoseek ...`` command quoted in the text are parsed by the
   ``infoseek`` argument parser (an option that does not exist, a value of the wrong type); the
   Quickstart's test command is checked against CI in ``tests/test_packaging.py``.
-* ``text`` blocks are printed output and ``bibtex`` a citation: not run.
+* ``text`` blocks are printed output and ``bibtex`` a citation: not run; ``{toctree}``,
+  ``{eval-rst}`` and ``{include}`` are the documentation's Sphinx directives (built by
+  ``.ci/docs``).
 """
 
 from __future__ import annotations
@@ -25,7 +28,15 @@ from infoseek.experiments.cli import build_parser
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()
-BLOCK = re.compile(r"^( *)```(\w+)\n(.*?)^\1```", re.MULTILINE | re.DOTALL)
+#: The README and every page of the documentation's sources.
+DOCUMENTS = {
+    path.relative_to(ROOT).as_posix(): path.read_text()
+    for path in [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+    if "_build" not in path.parts
+}
+#: A fenced block: indentation, language (or a MyST directive such as ``{include}``, whose
+#: argument may follow it on the fence line) and body.
+BLOCK = re.compile(r"^( *)```([\w{}-]+)[^\n`]*\n(.*?)^\1```", re.MULTILINE | re.DOTALL)
 
 #: First line of a python block -> (text, smaller text) replacements that make it fast.
 SMALLER: dict[str, list[tuple[str, str]]] = {
@@ -38,21 +49,31 @@ SMALLER: dict[str, list[tuple[str, str]]] = {
         ("learn(100_000)", "learn(64)"),
     ],
 }
-KNOWN_LANGUAGES = {"python", "bash", "text", "bibtex"}
+KNOWN_LANGUAGES = {"python", "bash", "text", "bibtex", "{toctree}", "{eval-rst}", "{include}"}
 
 
 def _blocks(language: str) -> list[str]:
-    return [
+    """The blocks of ``language`` in every document, each once (the README's example is also
+    the getting-started page's)."""
+    blocks = [
         "\n".join(line[len(indent) :] for line in body.splitlines())
-        for indent, lang, body in BLOCK.findall(README)
+        for text in DOCUMENTS.values()
+        for indent, lang, body in BLOCK.findall(text)
         if lang == language
     ]
+    return list(dict.fromkeys(blocks))
 
 
-def test_every_block_has_a_known_language() -> None:
-    languages = {lang for _, lang, _ in BLOCK.findall(README)}
+def test_the_documents_include_the_readme_and_the_docs() -> None:
+    assert "README.md" in DOCUMENTS and "docs/index.md" in DOCUMENTS
+
+
+@pytest.mark.parametrize("name", DOCUMENTS)
+def test_every_block_has_a_known_language(name: str) -> None:
+    text = DOCUMENTS[name]
+    languages = {lang for _, lang, _ in BLOCK.findall(text)}
     assert languages <= KNOWN_LANGUAGES, languages - KNOWN_LANGUAGES
-    assert README.count("```") == 2 * len(BLOCK.findall(README))  # no unterminated block
+    assert text.count("```") == 2 * len(BLOCK.findall(text))  # no unterminated block
 
 
 @pytest.mark.parametrize("code", _blocks("python"), ids=lambda code: code.splitlines()[0])
@@ -71,18 +92,19 @@ def test_python_blocks_run_as_scripts(code: str, tmp_path: Path) -> None:
 
 
 def _quoted_commands() -> list[str]:
-    """``infoseek ...`` commands of bash blocks and inline code outside tables."""
+    """``infoseek ...`` commands of bash blocks and inline code outside tables, each once."""
     commands = []
     for block in _blocks("bash"):
         for part in re.split(r"&&|\n", block):
             if part.strip().startswith("infoseek "):
                 commands.append(part.strip())
-    prose = BLOCK.sub("", README)
-    for line in prose.splitlines():
-        if line.lstrip().startswith("|"):
-            continue  # tables show synopses with [optional] parts and alternatives
-        commands += [c for c in re.findall(r"`(infoseek [^`]+)`", line)]
-    return commands
+    for text in DOCUMENTS.values():
+        prose = BLOCK.sub("", text)
+        for line in prose.splitlines():
+            if line.lstrip().startswith("|"):
+                continue  # tables show synopses with [optional] parts and alternatives
+            commands += [c for c in re.findall(r"`(infoseek [^`]+)`", line)]
+    return list(dict.fromkeys(commands))
 
 
 #: Placeholders the prose uses for a reader's own values, as parsable stand-ins.
@@ -106,6 +128,8 @@ def test_quoted_commands_parse(command: str, capsys: pytest.CaptureFixture[str])
     try:
         build_parser().parse_args(words)
     except SystemExit as exit_:  # argparse reports the problem on stderr
+        if exit_.code == 0 and "--help" in words:
+            return  # the help was printed
         error = capsys.readouterr().err
         if "the following arguments are required" not in error:
             pytest.fail(f"{command!r} does not parse (exit {exit_.code}): {error}")
