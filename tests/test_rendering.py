@@ -158,7 +158,7 @@ def test_demo_progress_bar_shows_the_time_left(
     assert code == 0
     assert "demo" not in capsys.readouterr().err  # no bar off a terminal
     monkeypatch.setattr("sys.stderr.isatty", lambda: True, raising=False)
-    bar = demo.trial_progress_bar(5, "demo", True, unit="step")
+    bar = demo.progress_bar(5, "demo", True, unit="step")
     bar.update(1)
     text = str(bar)
     bar.close()
