@@ -178,8 +178,8 @@ _PANEL_TITLES = {
 def _draw_bounds(
     axes: Any, bounds: Mapping[int, np.ndarray], fleets: Sequence[int], black: bool
 ) -> None:
-    """The mean clairvoyant bound of each fleet size in ``fleets`` that ``bounds`` holds, dotted
-    (black, or in the colour of the fleet's curve)."""
+    """The mean clairvoyant Gaussian/Fisher estimate of each fleet size in ``fleets`` that
+    ``bounds`` holds, dotted (black, or in the colour of the fleet's curve)."""
     for position, n_agents in enumerate(fleets):
         if n_agents in bounds:
             axes.plot(
@@ -187,8 +187,8 @@ def _draw_bounds(
                 linestyle=":",
                 lw=1.0,
                 color="k" if black else f"C{position % 10}",
-                label=f"clairvoyant bound, $n_v = {n_agents}$",
-                gid=f"clairvoyant bound, $n_v = {n_agents}$",
+                label=f"clairvoyant estimate, $n_v = {n_agents}$",
+                gid=f"clairvoyant estimate, $n_v = {n_agents}$",
             )
 
 

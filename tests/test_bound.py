@@ -104,7 +104,8 @@ def test_trials_beating_their_bound_and_the_headroom_left() -> None:
     # bound 2)
     records.append(dataclasses.replace(records[1], planner="single"))
     assert headroom(records, {4: ramp}, 60, reference="single") == (
-        "  single/4: mean ttl 4.00, bound 2.00 over the same 1 trials: at most 50.0 % faster"
+        "  single/4: mean ttl 4.00, estimate 2.00 over the same 1 trials: 50.0 % faster at the "
+        "estimate"
     )
 
 

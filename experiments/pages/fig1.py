@@ -47,7 +47,7 @@ _CAPTION = (
     "fleet size in (b)) span the 25th to 75th percentile of the trials: the mass of most "
     "trials is near 0 or near 1, so a mean can lie outside its own bar (the legend says so). "
     "Panel (c) shades one standard error of the paired mean; the dotted curves are the "
-    "clairvoyant bound ([Beyond the paper](horizon.md))."
+    "clairvoyant Gaussian/Fisher estimate ([Beyond the paper](horizon.md))."
 )
 
 
@@ -135,22 +135,23 @@ def _claims_prose(claims: list[str], rows: dict[tuple[str, int], GroupSummary]) 
 
 
 _BOUND = (
-    "* **The clairvoyant bound** (`infoseek.experiments.bound`, dotted in the figure): vehicles "
-    "that know the target, under the assumption that the belief is Gaussian with covariance no "
-    "smaller than the inverse Fisher information of the bearings, localise no sooner than the "
-    "`Clairvoyant bound` lines say; `What the bound leaves to gain` is the most any planner "
-    "could gain over pairwise-node. The bound puts every vehicle, at every step, at the point "
-    "of the disk it could have reached that adds the most bearing information along the "
-    "direction the team sees worst (the radial one), and ignores the turn-rate limit. "
-    "`tests/test_bound.py::test_no_stored_fig1_curve_crosses_the_bound` checks that no stored "
-    "mean curve lies above it. The `Trials localised before their own bound` lines count where "
-    "its assumption fails: targets near the domain's edge, where the prior's support cuts the "
-    "belief, which the Gaussian assumption leaves out, and beliefs concentrated in the wrong "
-    "place (the estimate more than the radius off the target)."
+    "* **The clairvoyant Gaussian/Fisher estimate** (`infoseek.experiments.bound`, dotted in "
+    "the figure): how soon vehicles that know the target could localise it *if* the belief "
+    "were Gaussian with covariance no smaller than the inverse Fisher information of the "
+    "bearings (the `Clairvoyant Gaussian/Fisher estimate` lines); `What the estimate leaves to "
+    "gain` is what reaching it would gain over pairwise-node. It puts every vehicle, at every "
+    "step, at the point of the disk it could have reached that adds the most bearing "
+    "information along the direction the team sees worst (the radial one), and ignores the "
+    "turn-rate limit. It is an estimate, not a bound: its assumption fails, and the "
+    "`Trials localised before their own estimate` lines count the trials that beat it "
+    "(targets near the domain's edge, where the prior's support cuts the belief, beliefs "
+    "concentrated in the wrong place, and posteriors sharper than the Gaussian assumption "
+    "allows). `tests/test_bound.py::test_no_stored_fig1_curve_crosses_the_bound` checks that "
+    "no stored *mean* curve lies above it."
 )
 _TRAVEL = (
     "* **Time to localise is mostly travel**: the last lines fit it against the target's "
-    "initial distance `d0` from the fleet's mean start position; the bound, which knows the "
+    "initial distance `d0` from the fleet's mean start position; the estimate, which knows the "
     "target and only asks how far the airplanes can have flown, grows with `d0` at nearly the "
-    "MI planners' slope, so most of the time to localise is flight that no planner can shorten."
+    "MI planners' slope: most of the time to localise is flight to the target."
 )

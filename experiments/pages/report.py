@@ -79,7 +79,7 @@ def baselines_bullet(rows: Mapping[tuple[str, int], GroupSummary], n_agents: int
 
 def percent_in(line: str, pattern: str) -> float:
     """The percentage a claims line states after ``pattern`` (``"(+2.0 % of"`` -> 2.0 with
-    ``pattern`` ``"("``; ``"at most 12.2 % faster"`` -> 12.2 with ``"at most "``).
+    ``pattern`` ``"("``; ``"trials: 12.2 % faster"`` -> 12.2 with ``"trials: "``).
 
     Raises:
         ValueError: No ``pattern`` followed by a percentage in ``line``.
