@@ -168,7 +168,7 @@ def describe(bounds: Mapping[int, FloatArray]) -> str:
         marks = ", ".join(f"step {t}: {mean[t]:.3f}" for t in (5, 10, 15, 20) if t < mean.size)
         lines.append(
             f"  estimate n_v = {n_agents}: mean ttl {ttl.mean():.2f} "
-            f"(median {np.median(ttl):.0f}), mean mass {marks}"
+            f"(median {np.median(ttl):.0f})" + (f", mean mass {marks}" if marks else "")
         )
     return "\n".join(lines) if lines else "  estimate: no trials"
 

@@ -104,8 +104,9 @@ def add_bench_arguments(parser: argparse.ArgumentParser) -> None:
         "--agents",
         type=_int_list,
         nargs="+",
+        action="extend",  # --agents 2 --agents 4 is --agents 2 4, not the last one alone
         default=None,
-        help="agent counts, e.g. --agents 2 3 4 10 or --agents 2,3,4 (default 4)",
+        help="agent counts, e.g. --agents 2 3 4 10 or --agents 2,3,4 (repeatable; default 4)",
     )
     parser.add_argument("--trials", type=int, default=100, help="trials per planner and count")
     parser.add_argument(

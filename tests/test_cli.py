@@ -8,6 +8,7 @@ import os
 import shutil
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +16,7 @@ import pytest
 from PIL import Image
 
 from infoseek.experiments.analysis import format_p_value, mass_curves
-from infoseek.experiments.cli import main
+from infoseek.experiments.cli import build_parser, main
 from infoseek.experiments.columns import TrialView
 from infoseek.experiments.plot import fig1_panels
 from infoseek.experiments.record import TrialRecord
@@ -576,3 +577,23 @@ def test_committed_ablation_trial_of_a_switched_planner_reproduces() -> None:
     checked = _cli(["verify", str(store), "--trials", "1", "--group", group, "--no-progress"])
     assert checked.returncode == 0, checked.stdout + checked.stderr
     assert "1 stored trial(s) rerun: 1 reproduced exactly" in checked.stdout
+
+
+def test_claims_on_one_trial_per_group_says_what_it_needs(tmp_path: Path, capsys) -> None:
+    """One trial per group gives no standard error: the claims say so instead of printing
+    ``+- nan`` (and no NumPy warning escapes)."""
+    times = {("single", 4): [12], ("pairwise", 4): [11], ("pairwise", 2): [15]}
+    _synthetic_store(tmp_path / "one", times, steps=60)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert main(["claims", str(tmp_path / "one")]) == 0
+    out = capsys.readouterr().out
+    assert "Claim A: needs at least 2 paired trials of single/4 and pairwise/4, has 1" in out
+    assert "Claim B: needs at least 2 paired trials of every pairwise group, has 1" in out
+    assert "nan" not in out
+
+
+def test_bench_agents_repeated_adds_fleet_sizes() -> None:
+    """``--agents 2 --agents 3`` runs both sizes (argparse kept only the last one)."""
+    parsed = build_parser().parse_args(["bench", "--agents", "2", "--agents", "3,4"])
+    assert [n for group in parsed.agents for n in group] == [2, 3, 4]

@@ -120,10 +120,11 @@ def mean_mass_line(
     _, a, b = paired_masses(records, base, other, n_agents, steps)
     mean_a, mean_b = np.nanmean(a, axis=1), np.nanmean(b, axis=1)
     gap, se, p = wilcoxon_faster(mean_b, mean_a)  # "slower" = the larger mass here
+    base_mean = float(mean_a.mean())
+    relative = f"{100 * gap / base_mean:+.1f} %" if base_mean > 0 else "no relative change"
     return (
         f"    mean posterior mass over steps 0-{steps}, {other} - {base}: {gap:+.4f} +- {se:.4f} "
-        f"({100 * gap / float(mean_a.mean()):+.1f} % of {base}'s {mean_a.mean():.3f}), "
-        f"one-sided Wilcoxon p {format_p_value(p)}"
+        f"({relative} of {base}'s {base_mean:.3f}), one-sided Wilcoxon p {format_p_value(p)}"
     )
 
 
@@ -145,11 +146,12 @@ def faster_line(
     )
     mean, stderr, p = wilcoxon_faster(data[:, 0], data[:, 1])
     verdict = "holds" if p < alpha else "not supported"
-    relative = 100.0 * mean / float(np.mean(data[:, 0]))
+    base = float(np.mean(data[:, 0]))
+    relative = f"{100.0 * mean / base:+.1f} %" if base > 0 else "no relative change"
     return (
         f"{label} (n_v = {n_agents}, {faster} faster than {slower}): {data.shape[0]} paired "
         f"trials, mean ttl {slower} - {faster} = {mean:+.2f} +- {stderr:.2f} steps "
-        f"({relative:+.1f} % of {slower}'s {np.mean(data[:, 0]):.2f}), one-sided Wilcoxon "
+        f"({relative} of {slower}'s {base:.2f}), one-sided Wilcoxon "
         f"p {format_p_value(p)} -> {verdict} at alpha = {alpha}"
     )
 
@@ -170,7 +172,8 @@ def mass_bands(records: Sequence[Trial], groups: Sequence[tuple[str, int]]) -> s
         for step in (t for t in BAND_STEPS if t < matrix.shape[1]):
             q25, q75 = np.nanpercentile(matrix[:, step], [25, 75])
             cells.append(f"step {step}: {np.nanmean(matrix[:, step]):.3f} ({q75 - q25:.3f})")
-        lines.append(f"    {planner}/{n_agents} mass mean (IQR): " + ", ".join(cells))
+        if cells:  # an episode shorter than the first band step has none
+            lines.append(f"    {planner}/{n_agents} mass mean (IQR): " + ", ".join(cells))
     return "\n".join(lines)
 
 
@@ -184,6 +187,12 @@ def baseline_lines(records: Sequence[Trial], baseline: Sequence[Trial], steps: i
         new = times_to_localise(records, planner, n_agents, steps)
         old = times_to_localise(baseline, planner, n_agents, steps)
         trials = sorted(set(new) & set(old))
+        if len(trials) < MIN_PAIRED_TRIALS:
+            lines.append(
+                f"  {planner}/{n_agents}: needs at least {MIN_PAIRED_TRIALS} trials both stores "
+                f"hold, has {len(trials)}"
+            )
+            continue
         a = np.array([new[k] for k in trials])
         b = np.array([old[k] for k in trials])
         difference = a - b
@@ -279,22 +288,46 @@ def claim_b_lines(
     return [f"{head}mean ttl {means}; {test} -> {verdict} at alpha = {alpha}", *lines]
 
 
+def paired_trials(records: Sequence[Trial], groups: Sequence[tuple[str, int]]) -> int:
+    """How many trial indices every one of ``groups`` holds (the pairs a paired test gets)."""
+    held = [{r.trial for r in records if (r.planner, r.n_agents) == group} for group in groups]
+    return len(set.intersection(*held)) if held else 0
+
+
+#: Fewest paired trials a paired test is run on (a standard error needs two).
+MIN_PAIRED_TRIALS = 2
+
+
 def paper_claim_lines(records: Sequence[Trial], steps: int, alpha: float) -> list[str]:
     """Claim A (pairwise-node faster than single-node at n_v = 4, and at the other fleet sizes
-    both ran) and Claim B (more vehicles localise faster)."""
+    both ran) and Claim B (more vehicles localise faster); a claim whose groups share fewer
+    than :data:`MIN_PAIRED_TRIALS` trials says so instead of a test."""
     groups = groups_of(records)
     lines = []
-    if {("single", 4), ("pairwise", 4)} <= groups:
+    claim_a = [("single", 4), ("pairwise", 4)]
+    if set(claim_a) <= groups and paired_trials(records, claim_a) < MIN_PAIRED_TRIALS:
+        lines.append(
+            f"Claim A: needs at least {MIN_PAIRED_TRIALS} paired trials of single/4 and "
+            f"pairwise/4, has {paired_trials(records, claim_a)}"
+        )
+    elif set(claim_a) <= groups:
         lines.append(faster_line(records, "single", "pairwise", 4, steps, alpha, "Claim A"))
         lines.append(mean_mass_line(records, "single", "pairwise", 4, steps))
         lines.append(mass_bands(records, [("single", 4), ("pairwise", 4)]))
     else:
         lines.append("Claim A: needs groups single/4 and pairwise/4")
     for n in sorted(n for planner, n in groups if planner == "single" and n != 4):
-        if ("pairwise", n) in groups:
+        pair = [("single", n), ("pairwise", n)]
+        if ("pairwise", n) in groups and paired_trials(records, pair) >= MIN_PAIRED_TRIALS:
             lines.append(faster_line(records, "single", "pairwise", n, steps, alpha, "  also"))
     sizes = sorted(n for planner, n in groups if planner == "pairwise")
-    if len(sizes) >= 2:
+    claim_b = [("pairwise", n) for n in sizes]
+    if len(sizes) >= 2 and paired_trials(records, claim_b) < MIN_PAIRED_TRIALS:
+        lines.append(
+            f"Claim B: needs at least {MIN_PAIRED_TRIALS} paired trials of every pairwise group, "
+            f"has {paired_trials(records, claim_b)}"
+        )
+    elif len(sizes) >= 2:
         lines.append("\n".join(claim_b_lines(records, sizes, steps, alpha)))
     else:
         lines.append("Claim B: needs pairwise groups with at least two fleet sizes")

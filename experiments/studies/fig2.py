@@ -9,8 +9,10 @@ position: the episode's seed is the first of a deterministic sequence of candida
 :data:`FIG2_MIN_START_DISTANCE` units from the starting vehicles, and the orientation is then
 set to ``pi/4`` through ``reset(options={"target": ...})``.
 
-The episode's numbers (its seed, the beacon, the snapshot masses) and provenance are kept in
-``OUT/fig2.json`` (:func:`write_fig2_record`), from which the results page is written.
+``infoseek reproduce fig2`` keeps the episode's numbers (its seed, the beacon, the snapshot
+masses) and provenance in ``OUT/fig2.json``
+(:func:`infoseek.experiments.pages.fig2_record.write_fig2_record`, above the studies), from
+which the results page is written.
 """
 
 from __future__ import annotations
