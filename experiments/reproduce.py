@@ -7,7 +7,9 @@ Part of the command line's top layer: each study lives in :mod:`infoseek.experim
 * ``fig2``: the paper's Fig. 2, one episode (:mod:`~infoseek.experiments.studies.fig2`);
 * ``beacon``: the beacon Monte Carlo study (:mod:`~infoseek.experiments.studies.beacon`);
 * ``ablation``: the Claim A ablation with the decisions study
-  (:mod:`~infoseek.experiments.studies.ablation`, :mod:`~infoseek.experiments.studies.decisions`).
+  (:mod:`~infoseek.experiments.studies.ablation`, :mod:`~infoseek.experiments.studies.decisions`);
+* ``grid_posterior``: the Fig. 1 store's episodes rerun beside an exact grid posterior
+  (:mod:`~infoseek.experiments.studies.grid_posterior`).
 
 Trial studies resume: a rerun with every trial stored only redraws. Every study ends by writing
 its results page (``--page FILE``, default ``OUT/page.md``; :mod:`infoseek.experiments.pages`).
@@ -24,14 +26,14 @@ from infoseek.experiments.commands import add_execution_arguments, execution, ru
 from infoseek.experiments.pages.fig2_record import write_fig2_record
 from infoseek.experiments.pages.registry import MIN_PAGE_TRIALS, write_page
 from infoseek.experiments.plot import plot_fig1_from_store
-from infoseek.experiments.studies import ablation, decisions, fig2
+from infoseek.experiments.studies import ablation, decisions, fig2, grid_posterior
 from infoseek.experiments.studies.beacon import beacon_plan
 from infoseek.experiments.studies.fig1 import fig1_plan
 
 __all__ = ["STUDIES", "add_reproduce_arguments", "fig1_plan", "run_reproduce_command"]
 
 #: The studies ``infoseek reproduce`` runs.
-STUDIES = ("fig1", "fig2", "beacon", "ablation")
+STUDIES = ("fig1", "fig2", "beacon", "ablation", "grid_posterior")
 
 
 def add_reproduce_arguments(parser: argparse.ArgumentParser) -> None:
@@ -89,7 +91,17 @@ def _run_study(out: Path, args: argparse.Namespace) -> int:
     """Run the study ``args.figure`` into ``out``; returns the exit code."""
     if args.figure == "fig2":
         return _fig2(out, args)
-    execution(args)
+    _, workers = execution(args)
+    if args.figure == "grid_posterior":  # the Fig. 1 store's episodes beside an exact posterior
+        if args.steps is not None or args.particles is not None or args.seed != 0:
+            raise ValueError("reproduce grid_posterior: --steps/--particles/--seed are the store's")
+        trials = f" --trials {args.trials}" if args.trials is not None else ""
+        command = f"infoseek reproduce grid_posterior{trials} --workers {workers} --out {out}"
+        path = grid_posterior.reproduce_grid_posterior(
+            out, trials=args.trials, workers=workers, command=command
+        )
+        print(f"wrote {path}")
+        return 0
     if args.figure == "ablation":
         return _ablation(out, args)
     if args.figure == "beacon":

@@ -1,11 +1,16 @@
 """The exact grid posterior (infoseek.envs.grid_posterior) against independent computations:
 a single bearing's wedge-shaped posterior in closed form (1-D integrals in polar coordinates
 around the sensor), importance sampling of the particle filter without resampling (its weights
-give the Monte Carlo standard error), and bad input."""
+give the Monte Carlo standard error), and bad input; the grid-posterior study
+(``infoseek reproduce grid_posterior``) against the Fig. 1 store it reruns, and its page."""
 
 from __future__ import annotations
 
+import json
 import math
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,6 +19,11 @@ from scipy import integrate, stats
 from infoseek.envs import make
 from infoseek.envs.grid_posterior import GridPosterior
 from infoseek.envs.sensors.bearing import BearingSensor
+from infoseek.experiments.analysis import time_to_localise
+from infoseek.experiments.cli import main
+from infoseek.experiments.columns import read_trials
+from infoseek.experiments.pages.registry import PAGES, render_page
+from infoseek.experiments.studies.grid_posterior import read_results
 
 SIGMA = 0.1
 POSE = np.array([12.0, 15.0])
@@ -200,3 +210,102 @@ def test_bad_update_and_queries_name_the_argument() -> None:
     beacon = make("beacon_v0").unwrapped.config
     with pytest.raises(ValueError, match="config"):
         GridPosterior.from_config(beacon)
+
+
+# ------------------------------------------------------------------ the study and its page
+ROOT = Path(__file__).resolve().parents[1]
+FIG1_STORE = ROOT / "experiments/results/fig1/store"
+RESULTS = ROOT / "experiments/results/grid_posterior"
+
+
+def _pinned(args: list[str]) -> subprocess.CompletedProcess[str]:
+    """``python ARGS`` from the repository's root in a fresh interpreter: trial commands pin the
+    numerical environment before NumPy loads (infoseek.experiments.numerics), which this
+    process, NumPy loaded, cannot."""
+    return subprocess.run(
+        [sys.executable, *args], cwd=ROOT, capture_output=True, text=True, timeout=600
+    )
+
+
+def test_reproduce_grid_posterior_reruns_the_stored_episodes(tmp_path: Path) -> None:
+    """`infoseek reproduce grid_posterior --trials 1`: one trial per group, whose filter masses
+    are the stored record's (read here from the store) and whose times to localise are those of
+    its two mass series."""
+    out = tmp_path / "gp"
+    args = ["reproduce", "grid_posterior", "--trials", "1", "--workers", "1", "--out", str(out)]
+    done = _pinned(["-m", "infoseek.experiments", *args])
+    assert done.returncode == 0, done.stdout + done.stderr
+    trials, provenance = read_results(out)
+    stored = {(v.planner, v.n_agents, v.trial): v for v in read_trials(FIG1_STORE)}
+    assert sorted(t.planner for t in trials) == ["horizon", "pairwise", "single"]
+    for trial in trials:
+        view = stored[(trial.planner, 4, 0)]
+        np.testing.assert_array_equal(np.float32(trial.filter_mass), np.float32(view.mass_agent0))
+        for series, ttl in (
+            (trial.filter_mass, trial.filter_ttl),
+            (trial.grid_mass, trial.grid_ttl),
+        ):
+            first = time_to_localise(series)
+            assert ttl == (60 if first is None else first)
+        assert min(trial.grid_mass) >= 0.0 and max(trial.grid_mass) <= 1.0 + 1e-9
+    assert provenance["config"]["env"] == "bearings_v0"
+    assert provenance["numerics"]["pinned"] is True
+    assert provenance["command"].startswith("infoseek reproduce grid_posterior --trials 1")
+
+
+_DIFFERS = """
+from infoseek.experiments.numerics import pin
+pin()
+from infoseek.experiments.studies.grid_posterior import FIG1_STORE, grid_specs, run_grid_trial
+spec, view = next(grid_specs(FIG1_STORE, ["single"], 1))
+run_grid_trial(spec, view.mass_agent0, 100)
+stored = list(view.mass_agent0)
+stored[7] += 1e-3
+try:
+    run_grid_trial(spec, stored, 100)
+except RuntimeError as error:
+    print(error)
+"""
+
+
+def test_a_rerun_that_differs_from_the_store_is_an_error() -> None:
+    """The stored masses pass; the same masses with one step moved by 1e-3 raise."""
+    done = _pinned(["-c", _DIFFERS])
+    assert done.returncode == 0, done.stderr
+    assert "the rerun's filter masses differ from the store" in done.stdout
+
+
+@pytest.mark.parametrize("option", [["--steps", "5"], ["--particles", "10"], ["--seed", "1"]])
+def test_reproduce_grid_posterior_rejects_what_the_store_fixes(
+    option: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "gp"
+    assert main(["reproduce", "grid_posterior", "--trials", "1", *option, "--out", str(out)]) == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+    assert not (out / "grid_posterior.json").exists()
+
+
+def test_committed_page_is_what_its_results_give(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(ROOT)
+    page = PAGES["grid_posterior"]
+    assert render_page("grid_posterior", page.default_results, page.default_page) == (
+        page.default_page.read_text()
+    ), "docs/results/grid_posterior.md differs from its results: run `infoseek page grid_posterior`"
+
+
+def test_the_page_follows_its_results(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Changing the grid's times to localise in a copy of the results moves the page's grid
+    mean for that planner to the mean computed here, and leaves the filter's."""
+    monkeypatch.chdir(ROOT)
+    body = json.loads((RESULTS / "grid_posterior.json").read_text())
+    rows = [row for row in body["trials"] if row["trial"] < 20]
+    for row in rows:
+        if row["planner"] == "pairwise" and row["trial"] < 5:
+            row["grid_ttl"] = 60
+    body["trials"] = rows
+    (tmp_path / "grid_posterior.json").write_text(json.dumps(body))
+    text = render_page("grid_posterior", tmp_path, tmp_path / "page.md")
+    pairwise = [row for row in rows if row["planner"] == "pairwise"]
+    grid = np.mean([row["grid_ttl"] for row in pairwise])
+    filt = np.mean([row["filter_ttl"] for row in pairwise])
+    assert f"| `pairwise` | {len(pairwise)} | {filt:.2f} | {grid:.2f} |" in text
