@@ -183,3 +183,17 @@ def test_results_quoted_outside_the_results_pages_are_on_their_page() -> None:
         text = (ROOT / "docs" / "results" / f"{page}.md").read_text()
         missing = [n.lstrip("+") for n in _NUMBER.findall(paragraph) if n.lstrip("+") not in text]
         assert not missing, f"{document} quotes {missing}, which docs/results/{page}.md lacks"
+
+
+def test_fig2_page_quotes_the_step_20_distribution_of_the_beacon_study() -> None:
+    """Issue 29: Fig. 2's one-episode mass is not stable; its page gives the distribution over
+    the beacon study's pairwise-node n_v = 4 episodes, recomputed here from the store's rows."""
+    rows = read_rows(ROOT / "experiments/results/beacon/store")
+    masses = np.array(
+        [r["mass_agent0"][20] for r in rows if (r["planner"], r["n_agents"]) == ("pairwise", 4)]
+    )
+    assert masses.size >= 200
+    text = (ROOT / "docs/results/fig2.md").read_text()
+    q25, median, q75 = np.quantile(masses, [0.25, 0.5, 0.75])
+    row = f"| {masses.size} | {masses.mean():.3f} | {median:.3f} ({q25:.3f} - {q75:.3f}) |"
+    assert row in text

@@ -6,12 +6,20 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import numpy as np
+
+from infoseek.experiments.columns import read_trials
 from infoseek.experiments.machine import format_machine
 from infoseek.experiments.pages.fig2_record import FIG2_RECORD, read_fig2_record
 from infoseek.experiments.pages.markdown import code_block, display_path, figure, page_text, table
 from infoseek.experiments.pages.provenance import format_numerics
 
-__all__ = ["fig2_page"]
+__all__ = ["FIG2_STEP", "distribution_section", "fig2_page"]
+
+#: The snapshot step whose mass the distribution section reports (the paper's last panel).
+FIG2_STEP = 20
+#: The beacon study's results directory, beside the Fig. 2 study's.
+BEACON_RESULTS = "beacon"
 
 _SETTINGS = (
     "Four quadrotors, the pairwise-node planner with its defaults (the `fourier` MI estimator "
@@ -39,6 +47,53 @@ _DEVIATIONS = (
     "given every kept observation (`envs/belief.py`); the beacon has not been re-run with "
     "them, so it keeps tempering off."
 )
+
+
+def distribution_section(beacon: Path) -> str:
+    """How the drawn episode's step-20 mass compares with many seeded episodes of the same
+    planner and fleet: the pairwise-node ``n_v = 4`` group of the beacon study's store (every
+    trial run by the harness in the pinned numerical environment). Empty without that store."""
+    if not (beacon / "store").is_dir():
+        return ""
+    masses = np.array(
+        [
+            float(view.mass_agent0[FIG2_STEP])
+            for view in read_trials(beacon / "store")
+            if (view.planner, view.n_agents) == ("pairwise", 4)
+            and view.mass_agent0.size > FIG2_STEP
+        ]
+    )
+    if masses.size == 0:
+        return ""
+    q25, median, q75 = np.quantile(masses, [0.25, 0.5, 0.75])
+    row = [
+        str(masses.size),
+        f"{masses.mean():.3f}",
+        f"{median:.3f} ({q25:.3f} - {q75:.3f})",
+        f"{np.mean(masses < 0.1):.0%}",
+        f"{np.mean(masses >= 0.9):.0%}",
+    ]
+    return "\n\n".join(
+        [
+            f"## One episode among many\n\nOne episode's mass after step {FIG2_STEP} is not a "
+            "stable number: a small change (another BLAS thread count, another seed) gives "
+            "another trajectory, and a beacon episode's mass is near 0 or near 1. The "
+            f"distribution of the mass after step {FIG2_STEP} over the seeded episodes of the "
+            f"pairwise-node planner with four quadrotors in the [beacon study](beacon.md) "
+            f"(`{display_path(beacon / 'store')}`, random beacon positions and orientations, "
+            "the pinned numerical environment) is the number to quote:",
+            table(
+                [
+                    "episodes",
+                    "mean mass",
+                    "median (25th - 75th percentile)",
+                    "below 0.1",
+                    "at or above 0.9",
+                ],
+                [row],
+            ),
+        ]
+    )
 
 
 def fig2_page(results: str | os.PathLike[str], page: str | os.PathLike[str]) -> str:
@@ -81,6 +136,7 @@ def fig2_page(results: str | os.PathLike[str], page: str | os.PathLike[str]) -> 
             code_block("\n".join(commands), "bash"),
             "## Results",
             masses,
+            distribution_section(results.parent / BEACON_RESULTS),
             _DEVIATIONS,
             "## Provenance",
             f"From `{display_path(results / FIG2_RECORD)}`, written by the run:",
