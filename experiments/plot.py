@@ -218,8 +218,25 @@ def plot_fig1(
     stem.parent.mkdir(parents=True, exist_ok=True)
     paths = [stem.with_name(stem.name + ".png"), stem.with_name(stem.name + ".svg")]
     for path in paths:
-        figure.savefig(path, dpi=130)
+        save_figure(figure, path, dpi=130)
     return paths
+
+
+def save_figure(figure: Any, path: str | os.PathLike[str], dpi: int) -> None:
+    """``figure.savefig`` with the same bytes for the same figure: an SVG gets no creation
+    date and its element ids come from a fixed salt (matplotlib's defaults are the time and a
+    random salt), so a redrawn committed figure changes only where its data do.
+
+    Args:
+        figure: A matplotlib figure.
+        path: Output file; its suffix picks the format.
+        dpi: Resolution of raster formats.
+    """
+    import matplotlib
+
+    svg = Path(path).suffix.lower() == ".svg"
+    with matplotlib.rc_context({"svg.hashsalt": "infoseek"}):
+        figure.savefig(path, dpi=dpi, metadata={"Date": None} if svg else None)
 
 
 def fig1_figure(

@@ -9,7 +9,10 @@ Part of the command line's top layer: each study lives in :mod:`infoseek.experim
 * ``ablation``: the Claim A ablation with the decisions study
   (:mod:`~infoseek.experiments.studies.ablation`, :mod:`~infoseek.experiments.studies.decisions`);
 * ``grid_posterior``: the Fig. 1 store's episodes rerun beside an exact grid posterior
-  (:mod:`~infoseek.experiments.studies.grid_posterior`).
+  (:mod:`~infoseek.experiments.studies.grid_posterior`);
+* ``horizon``: the receding-horizon planner and the clairvoyant reference added to a Fig. 1
+  store (:mod:`~infoseek.experiments.studies.horizon`; the Fig. 1 groups are run first, or
+  resumed, since the study compares with them).
 
 Trial studies resume: a rerun with every trial stored only redraws. Every study ends by writing
 its results page (``--page FILE``, default ``OUT/page.md``; :mod:`infoseek.experiments.pages`).
@@ -29,11 +32,12 @@ from infoseek.experiments.plot import plot_fig1_from_store
 from infoseek.experiments.studies import ablation, decisions, fig2, grid_posterior
 from infoseek.experiments.studies.beacon import beacon_plan
 from infoseek.experiments.studies.fig1 import fig1_plan
+from infoseek.experiments.studies.horizon import horizon_plans
 
 __all__ = ["STUDIES", "add_reproduce_arguments", "fig1_plan", "run_reproduce_command"]
 
 #: The studies ``infoseek reproduce`` runs.
-STUDIES = ("fig1", "fig2", "beacon", "ablation", "grid_posterior")
+STUDIES = ("fig1", "fig2", "beacon", "ablation", "grid_posterior", "horizon")
 
 
 def add_reproduce_arguments(parser: argparse.ArgumentParser) -> None:
@@ -41,14 +45,16 @@ def add_reproduce_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "figure",
         choices=STUDIES,
-        help="which study: the paper's fig1 or fig2, the beacon Monte Carlo study or the "
-        "Claim A ablation",
+        help="which study: the paper's fig1 or fig2, the beacon Monte Carlo study, the Claim A "
+        "ablation, the filter against an exact grid posterior, or the receding-horizon planner "
+        "and the clairvoyant reference added to a Fig. 1 store",
     )
     parser.add_argument(
         "--trials",
         type=int,
         default=None,
-        help="trials per curve (fig1: default 1000; beacon: default 500; ablation: 100)",
+        help="trials per curve (fig1: default 1000; beacon: default 500; ablation: 100; "
+        "horizon: the committed counts)",
     )
     parser.add_argument(
         "--steps", type=int, default=None, help="steps per trial (default: the env's episode)"
@@ -104,6 +110,8 @@ def _run_study(out: Path, args: argparse.Namespace) -> int:
         return 0
     if args.figure == "ablation":
         return _ablation(out, args)
+    if args.figure == "horizon":
+        return _horizon(out, args)
     if args.figure == "beacon":
         plan = beacon_plan(args.trials or 500, args.steps, args.particles, args.seed)
     else:
@@ -113,6 +121,25 @@ def _run_study(out: Path, args: argparse.Namespace) -> int:
     if code != 0:
         return code
     for path in plot_fig1_from_store(store, out / args.figure):
+        print(f"wrote {path}")
+    return 0
+
+
+def _horizon(out: Path, args: argparse.Namespace) -> int:
+    """``infoseek reproduce horizon``: the Fig. 1 groups (resumed) and the study's groups into
+    ``OUT/store``, then Fig. 1 (its panel (c) is the receding-horizon gain)."""
+    plans = [
+        fig1_plan(args.trials or 1000, args.steps, args.particles, args.seed),
+        *horizon_plans(args.trials, args.steps, args.particles, args.seed),
+    ]
+    store = out / "store"
+    for plan in plans:
+        plan.validate(store)  # every group before any trial is stored
+    for plan in plans:
+        code, _ = run_plan(plan, store, args)
+        if code != 0:
+            return code
+    for path in plot_fig1_from_store(store, out / "fig1"):
         print(f"wrote {path}")
     return 0
 

@@ -597,3 +597,30 @@ def test_bench_agents_repeated_adds_fleet_sizes() -> None:
     """``--agents 2 --agents 3`` runs both sizes (argparse kept only the last one)."""
     parsed = build_parser().parse_args(["bench", "--agents", "2", "--agents", "3,4"])
     assert [n for group in parsed.agents for n in group] == [2, 3, 4]
+
+
+def test_reproduce_horizon_adds_its_groups_to_a_fig1_store_and_writes_its_page(
+    tmp_path: Path,
+) -> None:
+    """``reproduce horizon``: the Fig. 1 groups and the study's groups in one store (paired by
+    trial), Fig. 1 redrawn, the horizon page written from that store."""
+    args = ["reproduce", "horizon", "--trials", "2", "--steps", "2", "--particles", "100"]
+    page = tmp_path / "horizon.md"
+    assert main([*args, "--workers", "1", "--out", str(tmp_path), "--page", str(page)]) == 0
+    groups = {(r.planner, r.n_agents) for r in read_records(tmp_path / "store")}
+    assert groups == {
+        ("single", 4),
+        ("pairwise", 2),
+        ("pairwise", 3),
+        ("pairwise", 4),
+        ("pairwise", 10),
+        ("horizon", 2),
+        ("horizon", 4),
+        ("horizon", 10),
+        ("infoseek.experiments.clairvoyant:fisher_reference", 4),
+    }
+    text = page.read_text()
+    assert "Horizon (n_v = 4, horizon faster than pairwise): 2 paired trials" in text
+    svg = (tmp_path / "fig1.svg").read_bytes()
+    assert main(["plot", str(tmp_path / "store"), "--out", str(tmp_path / "again")]) == 0
+    assert (tmp_path / "again.svg").read_bytes() == svg  # the same figure, the same bytes

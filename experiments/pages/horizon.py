@@ -80,6 +80,9 @@ def horizon_page(results: str | os.PathLike[str], page: str | os.PathLike[str]) 
     provenance = read_provenance(store)
     groups = [g for g in provenance.groups if g.planner in ("horizon", CLAIRVOYANT_LABEL)]
     commands = [
+        f"infoseek reproduce horizon --workers 2 --out {display_path(results)} --page "
+        f"{display_path(page)}",
+        "# or the same groups one command at a time, then the tables and this page:",
         *bench_commands(store, provenance.manifest["config"], groups),
         f"infoseek claims {display_path(store)}",
         f"infoseek page horizon --results {display_path(results)} --out {display_path(page)}",
@@ -90,9 +93,10 @@ def horizon_page(results: str | os.PathLike[str], page: str | os.PathLike[str]) 
             "# Beyond the paper: the receding-horizon planner, a clairvoyant reference and a bound",
             _INTRO.format(goal=GOAL_PERCENT, agents=_GOAL_AGENTS),
             "## Commands",
-            "The groups of this page, added to the Fig. 1 store by `infoseek bench` (each "
-            "resumes toward its `--trials`), the tables (the relevant sections of `infoseek "
-            "claims`) and this page:",
+            "The study (`infoseek reproduce horizon` runs, or resumes, the Fig. 1 groups and "
+            "adds this page's groups to the same store, then writes this page); the same "
+            "groups by `infoseek bench` (each resumes toward its `--trials`), the tables (the "
+            "relevant sections of `infoseek claims`) and this page:",
             code_block("\n".join(commands), "bash"),
             "## Results",
             code_block("\n".join(sections)),

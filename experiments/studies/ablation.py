@@ -47,6 +47,7 @@ from infoseek.experiments.bench import BenchPlan
 from infoseek.experiments.columns import read_trials
 from infoseek.experiments.decisions import SWITCHED_PLANNERS
 from infoseek.experiments.environments import default_steps
+from infoseek.experiments.plot import save_figure
 from infoseek.experiments.store import read_manifest
 
 ABLATION_ENV = "bearings_v0"
@@ -282,7 +283,7 @@ def plot_ablation(rows: Sequence[GapRow], stem: Path) -> list[Path]:
     paths = []
     for suffix in (".png", ".svg"):
         path = stem.with_suffix(suffix)
-        figure.savefig(path, dpi=110)
+        save_figure(figure, path, dpi=110)
         paths.append(path)
     return paths
 
