@@ -5,7 +5,11 @@
 * :mod:`.beacon`: the beacon Monte Carlo study (not in the paper);
 * :mod:`.ablation`: what the pairwise-node gain over single-node (Claim A) depends on;
 * :mod:`.decisions`: how often pairwise-node decides differently from single-node;
-* :mod:`.claims`: the paired tests of a store's claims (``infoseek claims``).
+* :mod:`.claims`: the paired tests of a store's claims (``infoseek claims``);
+* :mod:`.horizon`: the receding-horizon planner and the clairvoyant reference on the Fig. 1
+  store's targets (not in the paper);
+* :mod:`.grid_posterior`: the Fig. 1 store's episodes rerun beside an exact grid posterior (the
+  particle filter's own bias).
 
 Layers of :mod:`infoseek.experiments`, from the bottom:
 
@@ -17,9 +21,9 @@ Layers of :mod:`infoseek.experiments`, from the bottom:
   :mod:`infoseek.experiments.clairvoyant` (the clairvoyant reference);
 * **analysis**: pure functions and figures over stored trials that more than one study or
   command uses: :mod:`infoseek.experiments.analysis`, :mod:`infoseek.experiments.columns`,
-  :mod:`infoseek.experiments.bound` (the clairvoyant mass bound, used by ``claims`` and the
-  Fig. 1 figure) and :mod:`infoseek.experiments.plot` (the Fig. 1 figure, drawn by
-  ``infoseek plot`` for any store as well as by ``reproduce fig1``/``beacon``);
+  :mod:`infoseek.experiments.bound` (the clairvoyant Gaussian/Fisher estimate, used by
+  ``claims`` and the Fig. 1 figure) and :mod:`infoseek.experiments.plot` (the Fig. 1 figure,
+  drawn by ``infoseek plot`` for any store as well as by ``reproduce fig1``/``beacon``);
 * **studies**: this subpackage. A study imports the harness and the analysis, never another
   study;
 * **top**: what combines studies: the command line (:mod:`~infoseek.experiments.cli`,
