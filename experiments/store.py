@@ -257,8 +257,14 @@ def read_manifest(directory: str | os.PathLike[str]) -> dict[str, Any]:
     try:
         data = path.read_bytes()
     except FileNotFoundError:
+        inner = Path(directory) / "store"
+        hint = (
+            f"; the results store of a study run is {inner}"
+            if (inner / MANIFEST_NAME).is_file()
+            else ""
+        )
         raise StoreConfigError(
-            f"{directory}: not an infoseek results directory (no {MANIFEST_NAME})"
+            f"{directory}: not an infoseek results directory (no {MANIFEST_NAME}){hint}"
         ) from None
     try:
         manifest = json.loads(data)

@@ -624,3 +624,17 @@ def test_reproduce_horizon_adds_its_groups_to_a_fig1_store_and_writes_its_page(
     svg = (tmp_path / "fig1.svg").read_bytes()
     assert main(["plot", str(tmp_path / "store"), "--out", str(tmp_path / "again")]) == 0
     assert (tmp_path / "again.svg").read_bytes() == svg  # the same figure, the same bytes
+
+
+def test_a_study_directory_given_for_its_store_is_pointed_to_the_store(tmp_path: Path) -> None:
+    """``infoseek claims OUT`` after ``infoseek reproduce ... --out OUT``: the one-line error
+    names ``OUT/store``."""
+    _synthetic_store(tmp_path / "store", {("single", 4): [3, 4]}, steps=10)
+    result = subprocess.run(
+        [sys.executable, "-m", "infoseek.experiments", "claims", str(tmp_path)],
+        capture_output=True,
+        text=True,
+    )
+    assert result.returncode == 2
+    assert result.stderr.strip().endswith(f"the results store of a study run is {tmp_path}/store")
+    assert len(result.stderr.strip().splitlines()) == 1
