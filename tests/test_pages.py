@@ -197,3 +197,19 @@ def test_fig2_page_quotes_the_step_20_distribution_of_the_beacon_study() -> None
     q25, median, q75 = np.quantile(masses, [0.25, 0.5, 0.75])
     row = f"| {masses.size} | {masses.mean():.3f} | {median:.3f} ({q25:.3f} - {q75:.3f}) |"
     assert row in text
+
+
+def test_beacon_particles_page_times_are_those_of_its_stores() -> None:
+    """Each particle count's mean time to localise on the page, recomputed here from its
+    store's rows (first step with agent 0's mass >= 0.9, censored at the episode length)."""
+    text = (ROOT / "docs/results/beacon_particles.md").read_text()
+    stores = sorted((ROOT / "experiments/results/beacon_particles").glob("n*/manifest.json"))
+    assert len(stores) >= 3
+    for manifest in stores:
+        steps = int(read_manifest(manifest.parent)["config"]["steps"])
+        times = [
+            next((t for t, m in enumerate(row["mass_agent0"]) if m >= 0.9), steps)
+            for row in read_rows(manifest.parent)
+        ]
+        particles = manifest.parent.name[1:]
+        assert f"| {particles} | {len(times)} | {np.mean(times):.2f} (" in text, particles

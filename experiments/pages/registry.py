@@ -13,6 +13,7 @@ from pathlib import Path
 
 from infoseek.experiments.pages.ablation import ablation_page
 from infoseek.experiments.pages.beacon import beacon_page
+from infoseek.experiments.pages.beacon_particles import beacon_particles_page
 from infoseek.experiments.pages.fig1 import fig1_page
 from infoseek.experiments.pages.fig2 import fig2_page
 from infoseek.experiments.pages.grid_posterior import grid_posterior_page
@@ -71,6 +72,7 @@ PAGES: dict[str, Page] = {
         Page("fig1", "fig1", fig1_page),
         Page("fig2", "fig2", fig2_page),
         Page("beacon", "beacon", beacon_page),
+        Page("beacon_particles", "beacon_particles", beacon_particles_page),
         Page("ablation", "ablation", ablation_page),
         Page("horizon", "fig1", horizon_page),
         Page("rl", "rl", rl_page),
