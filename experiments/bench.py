@@ -100,6 +100,36 @@ class BenchPlan:
                     f"env kwarg {reserved!r} is set by the benchmark (use --agents / --steps)"
                 )
 
+    @classmethod
+    def for_study(
+        cls,
+        env: str,
+        groups: Sequence[tuple[str, int]],
+        trials: int,
+        steps: int | None = None,
+        particles: int | None = None,
+        seed: int = 0,
+    ) -> BenchPlan:
+        """A study's plan: ``env`` with its defaults except the particles per belief.
+
+        Args:
+            env: Environment id.
+            groups: ``(planner label, n_agents)`` pairs.
+            trials: Trials per group.
+            steps: Episode length (``None``: the environment's).
+            particles: Particles per belief (``None``: the environment's).
+            seed: Root seed.
+        """
+        env_kwargs: dict[str, Any] = {} if particles is None else {"n_particles": particles}
+        return cls(
+            env=env,
+            env_kwargs=env_kwargs,
+            steps=default_steps(env, env_kwargs) if steps is None else steps,
+            seed=seed,
+            groups=list(groups),
+            trials=trials,
+        )
+
     def config(self) -> dict[str, Any]:
         """The stored run configuration (the manifest's ``config``): environment keywords
         equal to the environment's defaults are left out, so ``--particles 2000`` (the default

@@ -56,6 +56,7 @@ __all__ = [
     "TrialFailedError",
     "check_backend",
     "execute",
+    "spawn_pool",
 ]
 
 #: The named backends (a ``"module:factory"`` executor is the other kind).
@@ -220,15 +221,7 @@ def _process_pool(specs: Iterable[TrialSpec], workers: int) -> Finished:
     others = set(multiprocessing.active_children())
 
     def start() -> Executor:
-        with single_threaded_workers():
-            executor = ProcessPoolExecutor(
-                max_workers=workers,
-                mp_context=multiprocessing.get_context("spawn"),
-                initializer=_die_with_parent,
-                initargs=(os.getpid(),),
-            )
-            executor.submit(int).result()  # start the workers while the variables are set
-        return executor
+        return spawn_pool(workers)
 
     def stop(executor: Executor, finished: bool) -> None:
         executor.shutdown(wait=False, cancel_futures=True)
@@ -236,6 +229,22 @@ def _process_pool(specs: Iterable[TrialSpec], workers: int) -> Finished:
             _terminate(set(multiprocessing.active_children()) - others)
 
     return _pooled(specs, workers, start, stop)
+
+
+def spawn_pool(workers: int) -> ProcessPoolExecutor:
+    """A pool of ``workers`` ``spawn``-ed processes as the process backend starts them: one
+    BLAS thread each (:func:`single_threaded_workers`), killed if this process dies, the heap
+    tuned as this process chose. The workers are started here, while the thread variables are
+    set (a pool starts its processes on the first submit)."""
+    with single_threaded_workers():
+        executor = ProcessPoolExecutor(
+            max_workers=workers,
+            mp_context=multiprocessing.get_context("spawn"),
+            initializer=_die_with_parent,
+            initargs=(os.getpid(),),
+        )
+        executor.submit(int).result()
+    return executor
 
 
 #: Thread-count variables of the BLAS/OpenMP libraries NumPy and SciPy may use.

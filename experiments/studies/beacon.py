@@ -9,10 +9,7 @@ fleets localise faster (Claim B). Settings are ``beacon_v0``'s defaults.
 
 from __future__ import annotations
 
-from typing import Any
-
 from infoseek.experiments.bench import BenchPlan
-from infoseek.experiments.environments import default_steps
 
 __all__ = ["BEACON_ENV", "BEACON_GROUPS", "beacon_plan"]
 
@@ -36,16 +33,4 @@ def beacon_plan(
     seed: int = 0,
 ) -> BenchPlan:
     """The benchmark plan of the beacon Monte Carlo study (module docstring)."""
-    env_kwargs: dict[str, Any] = {}
-    if particles is not None:
-        env_kwargs["n_particles"] = particles
-    if steps is None:
-        steps = default_steps(BEACON_ENV, env_kwargs)
-    return BenchPlan(
-        env=BEACON_ENV,
-        env_kwargs=env_kwargs,
-        steps=steps,
-        seed=seed,
-        groups=list(BEACON_GROUPS),
-        trials=trials,
-    )
+    return BenchPlan.for_study(BEACON_ENV, BEACON_GROUPS, trials, steps, particles, seed)

@@ -18,10 +18,7 @@ resumable benchmark (:mod:`infoseek.experiments.bench`) and drawn by
 
 from __future__ import annotations
 
-from typing import Any
-
 from infoseek.experiments.bench import BenchPlan
-from infoseek.experiments.environments import default_steps
 
 __all__ = ["FIG1_ENV", "FIG1_GROUPS", "fig1_plan"]
 
@@ -44,16 +41,4 @@ def fig1_plan(
     seed: int = 0,
 ) -> BenchPlan:
     """The benchmark plan of Fig. 1 (``steps`` default: the environment's episode length)."""
-    env_kwargs: dict[str, Any] = {}
-    if particles is not None:
-        env_kwargs["n_particles"] = particles
-    if steps is None:
-        steps = default_steps(FIG1_ENV, env_kwargs)
-    return BenchPlan(
-        env=FIG1_ENV,
-        env_kwargs=env_kwargs,
-        steps=steps,
-        seed=seed,
-        groups=list(FIG1_GROUPS),
-        trials=trials,
-    )
+    return BenchPlan.for_study(FIG1_ENV, FIG1_GROUPS, trials, steps, particles, seed)

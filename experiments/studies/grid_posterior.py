@@ -28,11 +28,9 @@ read whole by the results page; the Parquet stores serve resumable runs of thous
 from __future__ import annotations
 
 import json
-import multiprocessing
 import os
 import time
 from collections.abc import Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -45,7 +43,7 @@ from infoseek.experiments.analysis import time_to_localise
 from infoseek.experiments.bench import BenchPlan
 from infoseek.experiments.columns import TrialView, read_trials
 from infoseek.experiments.environments import make_env
-from infoseek.experiments.executors import single_threaded_workers
+from infoseek.experiments.executors import spawn_pool
 from infoseek.experiments.policies import build_policy
 from infoseek.experiments.store import jsonable, read_manifest
 from infoseek.experiments.trial import TrialSpec, position_metrics
@@ -239,11 +237,7 @@ def run_grid_trials(
     ]
     if workers == 1:
         return [run_grid_trial(*job) for job in jobs]
-    with single_threaded_workers():
-        pool = ProcessPoolExecutor(
-            max_workers=workers, mp_context=multiprocessing.get_context("spawn")
-        )
-    with pool:
+    with spawn_pool(workers) as pool:
         return list(pool.map(run_grid_trial, *zip(*jobs, strict=True), chunksize=1))
 
 

@@ -13,11 +13,8 @@ stored trials, not run.
 
 from __future__ import annotations
 
-from typing import Any
-
 from infoseek.experiments.bench import BenchPlan
 from infoseek.experiments.clairvoyant import CLAIRVOYANT_LABEL
-from infoseek.experiments.environments import default_steps
 
 __all__ = ["HORIZON_ENV", "HORIZON_GROUPS", "horizon_plans"]
 
@@ -46,20 +43,10 @@ def horizon_plans(
         particles: Particles per belief (``None``: the environment's).
         seed: Root seed.
     """
-    env_kwargs: dict[str, Any] = {} if particles is None else {"n_particles": particles}
-    if steps is None:
-        steps = default_steps(HORIZON_ENV, env_kwargs)
     by_count: dict[int, list[tuple[str, int]]] = {}
     for planner, n_agents, count in HORIZON_GROUPS:
         by_count.setdefault(count if trials is None else trials, []).append((planner, n_agents))
     return [
-        BenchPlan(
-            env=HORIZON_ENV,
-            env_kwargs=dict(env_kwargs),
-            steps=steps,
-            seed=seed,
-            groups=groups,
-            trials=count,
-        )
+        BenchPlan.for_study(HORIZON_ENV, groups, count, steps, particles, seed)
         for count, groups in sorted(by_count.items())
     ]
