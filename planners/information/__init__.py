@@ -341,10 +341,10 @@ def pairwise_mutual_information(
     estimator = make_estimator(method, sensor, n_observations=2, **options)
     belief = estimator.bind(particles, weights)
     values = belief.pairs(poses_a, poses_b)
-    a = check_poses(sensor, poses_a, "poses_a", "(C, pose_dim)")
-    b = check_poses(sensor, poses_b, "poses_b", "(M, pose_dim)")
-    pairs = np.stack(np.broadcast_arrays(a[:, None, :], b[None, :, :]), axis=2)
-    _warn_if_bounded(
-        estimator, estimator.unresolved_mass(belief, pairs.reshape(-1, 2, a.shape[1])), 2
-    )
+    # weight unresolved at a or at b: w(a) + w(b) - w(a and b), from the C + M poses alone
+    a = estimator.unresolved(belief, check_poses(sensor, poses_a, "poses_a", "(C, pose_dim)"))
+    b = estimator.unresolved(belief, check_poses(sensor, poses_b, "poses_b", "(M, pose_dim)"))
+    w = belief.weights
+    unresolved = (a @ w)[:, None] + (b @ w)[None, :] - (a * w) @ b.T.astype(np.float64)
+    _warn_if_bounded(estimator, unresolved, 2)
     return values

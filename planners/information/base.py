@@ -263,11 +263,19 @@ class MIEstimator(ABC):
         """This estimator applied to one belief (validated here, once)."""
         return BeliefMI(self, particles, weights)
 
+    def unresolved(self, belief: BeliefMI, poses: FloatArray) -> NDArray[np.bool_]:
+        """``(P, N)``: whether this estimator leaves particle ``n``'s likelihood at pose ``p``
+        unresolved (the MI of any set holding ``p`` is then only a lower bound). Nothing,
+        unless an estimator caps what it resolves."""
+        return np.zeros((poses.shape[0], belief.n_particles), dtype=bool)
+
     def unresolved_mass(self, belief: BeliefMI, pose_sets: FloatArray) -> FloatArray:
-        """``(C,)`` posterior weight of the particles whose likelihood this estimator does not
-        resolve at some pose of each ``(C, k, pose_dim)`` set: where it is positive the value
-        is only a lower bound of the MI. Zero unless an estimator caps what it resolves."""
-        return np.zeros(pose_sets.shape[0])
+        """``(C,)`` posterior weight of the particles left unresolved (:meth:`unresolved`) at
+        some pose of each ``(C, k, pose_dim)`` set: where it is positive the value is only a
+        lower bound of the MI."""
+        n_sets, k, pose_dim = pose_sets.shape
+        flags = self.unresolved(belief, pose_sets.reshape(n_sets * k, pose_dim))
+        return np.asarray(flags.reshape(n_sets, k, -1).any(axis=1) @ belief.weights)
 
     # -- the computations (arrays already validated)
     @abstractmethod

@@ -37,7 +37,7 @@ fourier_spectra`, NumPy's bits) and kept with the channels by the belief's
 ``Q = 36``. Shapes above ``s_max`` (an unbounded sensor beyond ``max_shape``) use the kernel of
 ``s_max``: that is the MI of a receiver with its SNR capped at ``s_max``, a lower bound of the
 exact MI (data processing), and exact wherever no particle exceeds it. The estimator reports the
-weight of the capped particles (:meth:`ShiftKernelEstimator.unresolved_mass`), and the public
+capped particles (:meth:`ShiftKernelEstimator.unresolved`), and the public
 functions (:func:`~infoseek.planners.information.mutual_information`, ...) mark such a value as
 a lower bound and warn (:class:`~infoseek.planners.information.base.MILowerBoundWarning`):
 the exact ``beacon`` receiver near the beacon is the case (its SNR is unbounded).
@@ -50,6 +50,7 @@ from typing import ClassVar
 
 import numpy as np
 import scipy.fft
+from numpy.typing import NDArray
 
 from infoseek.envs.sensors.base import Sensor
 from infoseek.planners.information.base import BeliefMI, FloatArray, JointEntropies, MIEstimator
@@ -259,18 +260,14 @@ class ShiftKernelEstimator(MIEstimator):
         and ``(P,)`` conditional entropies; cached per pose."""
         return self.cache(belief).channels(poses)
 
-    def unresolved_mass(self, belief: BeliefMI, pose_sets: FloatArray) -> FloatArray:
-        """``(C,)`` weight of the particles whose kernel shape exceeds the table's ``s_max`` at
-        some pose of each set: their SNR is capped there, so the value is a lower bound (module
-        docstring). Zero for a sensor whose shapes never exceed ``s_max``."""
-        n_sets, k, pose_dim = pose_sets.shape
+    def unresolved(self, belief: BeliefMI, poses: FloatArray) -> NDArray[np.bool_]:
+        """``(P, N)``: whether particle ``n``'s kernel shape at pose ``p`` exceeds the table's
+        ``s_max`` (its SNR is capped there, so the value is a lower bound: module docstring).
+        Nothing for a sensor whose shapes never exceed ``s_max``."""
         if float(self.sensor.max_kernel_shape) <= self.table.max_shape:  # type: ignore[attr-defined]
-            return np.zeros(n_sets)
-        _, shape = self.sensor.kernel_parameters(  # type: ignore[attr-defined]
-            pose_sets.reshape(n_sets * k, pose_dim), belief.particles
-        )
-        capped = (np.asarray(shape).reshape(n_sets, k, -1) > self.table.max_shape).any(axis=1)
-        return np.asarray(capped @ belief.weights, dtype=np.float64)
+            return np.zeros((poses.shape[0], belief.n_particles), dtype=bool)
+        _, shape = self.sensor.kernel_parameters(poses, belief.particles)  # type: ignore[attr-defined]
+        return np.asarray(shape) > self.table.max_shape
 
     # -- estimates
     def singles(self, belief: BeliefMI, poses: FloatArray) -> FloatArray:
