@@ -240,7 +240,7 @@ def spawn_pool(workers: int) -> ProcessPoolExecutor:
         executor = ProcessPoolExecutor(
             max_workers=workers,
             mp_context=multiprocessing.get_context("spawn"),
-            initializer=_die_with_parent,
+            initializer=_start_worker,
             initargs=(os.getpid(),),
         )
         executor.submit(int).result()
@@ -269,14 +269,19 @@ def single_threaded_workers() -> Iterator[None]:
                 os.environ[name] = value
 
 
-def _die_with_parent(parent: int) -> None:
-    """Worker initializer: on Linux, ask the kernel to kill this worker when its parent dies
-    (a killed ``bench`` then leaves no worker processes behind); a worker whose parent
-    ``parent`` died before this ran (a slow start on a loaded machine) exits at once. It
-    tunes the heap as its parent chose (:func:`infoseek.envs.heap.tune_from_environment`)."""
+def _start_worker(parent: int) -> None:
+    """Worker initializer: the heap tuned as the parent chose
+    (:func:`infoseek.envs.heap.tune_from_environment`), and :func:`_die_with_parent`."""
     from infoseek.envs import heap
 
     heap.tune_from_environment()
+    _die_with_parent(parent)
+
+
+def _die_with_parent(parent: int) -> None:
+    """On Linux, ask the kernel to kill this worker when its parent dies (a killed ``bench``
+    then leaves no worker processes behind); a worker whose parent ``parent`` died before this
+    ran (a slow start on a loaded machine) exits at once."""
     if sys.platform.startswith("linux"):
         import ctypes
         import signal
