@@ -35,7 +35,15 @@ domain half-size ``h`` (per axis), the appended entries are
   (large when close, the repulsion a team needs to spread its viewpoints);
 * the domain centre ``c``: ``R (c - x_i) / h``;
 * the spread of the belief-grid masses ``w_k`` at cell centres ``g_k``:
-  ``sqrt(sum_k w_k (g_k - gbar)^2) / h`` per axis (``gbar = sum_k w_k g_k``).
+  ``sqrt(sum_k w_k (g_k - gbar)^2) / h`` per axis (``gbar = sum_k w_k g_k``);
+* with the environment's ``belief_moments`` block (the belief's covariance ``S`` from
+  ``(s_x, s_y, rho)``): the body-frame covariance ``R S R^T`` as ``log(s_f + e)``,
+  ``log(s_l + e)`` and its correlation, and, along the line of sight ``u`` to the estimate at
+  distance ``r``, ``log(sqrt(u^T S u) + e)``, ``log(sqrt(v^T S v) + e)`` (``v`` perpendicular
+  to ``u``) and the angular spread ``log(sqrt(v^T S v) / r + e)`` (``e = 0.01``). Logarithms,
+  because what matters after the first readings is whether the belief is 0.1 or 0.5 units
+  wide, which a scale of the domain's size cannot show; the angular spread is what decides how
+  much a bearing reading can tell (it is small against the noise when the belief is far).
 
 Everything is computed from the observation alone, so the policy sees nothing the environment
 does not hand every agent.
@@ -148,7 +156,8 @@ def egocentric_layout(env: Any) -> dict[str, Any]:
     Returns:
         JSON-friendly keywords: ``x_index``, ``y_index``, ``heading_index`` (-1: no heading),
         ``others_start``, ``n_others``, ``grid_start``, ``grid_shape``, ``estimate_start``,
-        ``domain_low``, ``domain_high`` (planar ``(2,)`` lists).
+        ``domain_low``, ``domain_high`` (planar ``(2,)`` lists), ``moments_start`` (-1: the
+        observation has no ``belief_moments`` block).
 
     Raises:
         ValueError: The vehicle state has no ``x``/``y`` entries.
@@ -172,6 +181,7 @@ def egocentric_layout(env: Any) -> dict[str, Any]:
         "estimate_start": layout["mmse_estimate"].start,
         "domain_low": [float(v) for v in np.asarray(base.config.space.low)[:2]],
         "domain_high": [float(v) for v in np.asarray(base.config.space.high)[:2]],
+        "moments_start": layout["belief_moments"].start if "belief_moments" in layout else -1,
     }
 
 
@@ -211,6 +221,7 @@ class EgocentricObservationExtractor(ScaledObservationExtractor):
             "others": int(layout["others_start"]) + 2 * n_others,
             "grid": int(layout["grid_start"]) + gx * gy,
             "estimate": int(layout["estimate_start"]) + 2,
+            "moments": int(layout.get("moments_start", -1)) + 4,
         }
         outside = {name: stop for name, stop in checks.items() if stop > n}
         if outside:
@@ -227,6 +238,7 @@ class EgocentricObservationExtractor(ScaledObservationExtractor):
         self.grid_start = int(layout["grid_start"])
         self.grid_size = gx * gy
         self.estimate_start = int(layout["estimate_start"])
+        self.moments_start = int(layout.get("moments_start", -1))
         # cell centres of the x-slowest flat grid, (gx * gy, 2)
         cx = low[0] + (np.arange(gx, dtype=np.float32) + 0.5) * (high[0] - low[0]) / gx
         cy = low[1] + (np.arange(gy, dtype=np.float32) + 0.5) * (high[1] - low[1]) / gy
@@ -235,6 +247,8 @@ class EgocentricObservationExtractor(ScaledObservationExtractor):
         self.register_buffer("half_size", torch.as_tensor(0.5 * (high - low)))
         self.register_buffer("domain_centre", torch.as_tensor(0.5 * (high + low)))
         self._features_dim = n + 2 + 3 + 3 * n_others + 2 + 2
+        if self.moments_start >= 0:
+            self._features_dim += len(MOMENT_FEATURES)
 
     def forward(self, observations: torch.Tensor) -> torch.Tensor:
         """``(batch, obs_dim)`` -> ``(batch, features_dim)``."""
@@ -278,4 +292,51 @@ class EgocentricObservationExtractor(ScaledObservationExtractor):
             body(self.domain_centre - position),
             spread,
         ]
+        if self.moments_start >= 0:
+            moments = flat[:, self.moments_start : self.moments_start + 3]
+            parts.append(_covariance_features(moments, cos, sin, to_estimate))
         return torch.cat(parts, dim=1)
+
+
+#: Names of the features :func:`_covariance_features` appends (module docstring).
+MOMENT_FEATURES = (
+    "log_spread_forward",
+    "log_spread_left",
+    "body_correlation",
+    "log_spread_line_of_sight",
+    "log_spread_across",
+    "log_angular_spread",
+)
+_EPSILON = 0.01
+
+
+def _covariance_features(
+    moments: torch.Tensor, cos: torch.Tensor, sin: torch.Tensor, to_estimate: torch.Tensor
+) -> torch.Tensor:
+    """``(B, 6)`` :data:`MOMENT_FEATURES` from ``(B, 3)`` ``(s_x, s_y, rho)``, the heading's
+    ``cos``/``sin`` and the ``(B, 2)`` world-frame offset to the estimate."""
+    sx, sy, rho = moments[:, 0], moments[:, 1], moments[:, 2]
+    cxx, cyy, cxy = sx * sx, sy * sy, rho * sx * sy
+
+    def quadratic(ux: torch.Tensor, uy: torch.Tensor) -> torch.Tensor:
+        return (ux * ux * cxx + 2.0 * ux * uy * cxy + uy * uy * cyy).clamp_min(0.0)
+
+    forward = quadratic(cos, sin)
+    left = quadratic(-sin, cos)
+    mixed = -cos * sin * cxx + (cos * cos - sin * sin) * cxy + sin * cos * cyy
+    correlation = mixed / torch.sqrt(forward * left).clamp_min(1e-12)
+    distance = torch.linalg.vector_norm(to_estimate, dim=1).clamp_min(1e-6)
+    ux, uy = to_estimate[:, 0] / distance, to_estimate[:, 1] / distance
+    along = torch.sqrt(quadratic(ux, uy))
+    across = torch.sqrt(quadratic(-uy, ux))
+    return torch.stack(
+        [
+            torch.log(torch.sqrt(forward) + _EPSILON),
+            torch.log(torch.sqrt(left) + _EPSILON),
+            correlation.clamp(-1.0, 1.0),
+            torch.log(along + _EPSILON),
+            torch.log(across + _EPSILON),
+            torch.log(across / distance + _EPSILON),
+        ],
+        dim=1,
+    )

@@ -33,6 +33,7 @@ import numpy as np
 import torch
 from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.policies import ActorCriticPolicy
 
 __all__ = [
     "ALGORITHMS",
@@ -204,7 +205,7 @@ class TrainedPolicy:
             batch.append(observation)
         stacked = np.stack(batch)
         if self.deterministic:
-            actions, _ = self.model.predict(stacked, deterministic=True)
+            actions = self._deterministic_actions(stacked)
         else:
             with torch.random.fork_rng(devices=[]):
                 assert self._torch_state is not None  # seeded in __init__
@@ -214,6 +215,22 @@ class TrainedPolicy:
         if self.discrete:
             return {agent: int(actions[k]) for k, agent in enumerate(agents)}
         return {agent: np.asarray(actions[k], dtype=np.float32) for k, agent in enumerate(agents)}
+
+    def _deterministic_actions(self, stacked: np.ndarray) -> np.ndarray:
+        """``model.predict(stacked, deterministic=True)`` without its per-call checks for an
+        actor-critic policy (the same numbers: the mode of the distribution, clipped to the
+        Box as SB3 does); other models go through ``predict``."""
+        policy = self.model.policy
+        if not isinstance(policy, ActorCriticPolicy) or policy.squash_output:
+            actions, _ = self.model.predict(stacked, deterministic=True)
+            return np.asarray(actions)
+        with torch.inference_mode():
+            distribution = policy.get_distribution(torch.from_numpy(stacked))
+            actions = distribution.get_actions(deterministic=True).numpy()
+        space = self.model.action_space
+        if isinstance(space, gymnasium.spaces.Box):
+            return np.clip(actions.reshape((-1, *space.shape)), space.low, space.high)
+        return actions.reshape(-1)
 
 
 def load_policy(

@@ -64,7 +64,13 @@ from infoseek.baselines.features import (
     observation_scaling,
 )
 from infoseek.baselines.hyperparameters import check_hyperparameters
-from infoseek.baselines.policy import ALGORITHMS, CONFIG_FILE, MODEL_FILE
+from infoseek.baselines.policy import (
+    ALGORITHMS,
+    CONFIG_FILE,
+    MODEL_FILE,
+    check_spaces,
+    resolve_model_path,
+)
 from infoseek.baselines.vec_env import make_training_vec_env
 from infoseek.envs import make, registry
 
@@ -73,6 +79,8 @@ __all__ = [
     "DEFAULT_HYPERPARAMETERS",
     "TrainingConfig",
     "TrainingResult",
+    "build_model",
+    "check_initial_model",
     "find_resume_point",
     "train",
 ]
@@ -170,6 +178,7 @@ class TrainingConfig:
     checkpoint_freq: int = 50_000
     torch_threads: int | None = 1
     features: str = "egocentric"
+    init_from: str | None = None
 
     def __post_init__(self) -> None:
         algo = str(self.algo).lower()
@@ -184,6 +193,8 @@ class TrainingConfig:
             )
         if self.features not in FEATURES:
             raise ValueError(f"features must be one of {list(FEATURES)}, got {self.features!r}")
+        if self.init_from is not None and algo != "ppo":
+            raise ValueError(f"init_from needs algo 'ppo', got {algo!r}")
         if algo != "ppo" and self.action_type != "continuous":
             raise ValueError(f"algo {algo!r} needs action_type='continuous' (PPO handles both)")
         for name, minimum in (
@@ -348,7 +359,44 @@ def _write_config(out: Path, config: TrainingConfig, trained_timesteps: int | No
     return path
 
 
-def _build_model(config: TrainingConfig, vec_env: Any, probe_env: Any, out: Path) -> BaseAlgorithm:
+def check_initial_model(config: TrainingConfig) -> BaseAlgorithm:
+    """Load ``config.init_from`` and check it against the run's environment (before any work).
+
+    Returns:
+        The loaded model.
+
+    Raises:
+        ValueError: No model there, or a model for another observation layout or action space.
+    """
+    assert config.init_from is not None
+    path = resolve_model_path(config.init_from)
+    model = ALGORITHMS[config.algo].load(str(path), device="cpu")
+    probe = make(config.env_id, **config.full_env_kwargs())
+    try:
+        check_spaces(model, probe, where=f"init_from {path}")
+    finally:
+        probe.close()
+    return model
+
+
+def _with_initial_architecture(config: TrainingConfig, initial: BaseAlgorithm) -> TrainingConfig:
+    """``config`` with the hidden layers of the model it starts from.
+
+    Raises:
+        ValueError: ``net_arch`` was requested and differs from the initial model's.
+    """
+    arch = json.loads(json.dumps(initial.policy_kwargs.get("net_arch")))
+    requested = config.hyperparameters.get("net_arch")
+    if requested is not None and json.loads(json.dumps(requested)) != arch:
+        raise ValueError(
+            f"init_from {config.init_from} has net_arch={arch}, the run asks for {requested}"
+        )
+    return dataclasses.replace(config, hyperparameters={**config.hyperparameters, "net_arch": arch})
+
+
+def build_model(config: TrainingConfig, vec_env: Any, probe_env: Any, out: Path) -> BaseAlgorithm:
+    """A fresh SB3 model for ``config`` on ``vec_env`` (features from ``probe_env``; TensorBoard
+    logs under ``out``)."""
     hyper = config.full_hyperparameters()
     net_arch = list(hyper.pop("net_arch"))
     offset, scale = observation_scaling(probe_env)
@@ -420,6 +468,10 @@ def train(
             last_evaluation=None,
         )
 
+    initial: BaseAlgorithm | None = None
+    if resume is None and config.init_from is not None:
+        initial = check_initial_model(config)
+        config = _with_initial_architecture(config, initial)
     previous = json.loads((out / CONFIG_FILE).read_text()) if (out / CONFIG_FILE).is_file() else {}
     vec_env = make_training_vec_env(
         config.env_id, env_kwargs, n_envs=config.n_envs, num_cpus=config.num_cpus
@@ -427,8 +479,10 @@ def train(
     resumed_from: Path | None = None
     if resume is None:
         probe_env = make(config.env_id, **env_kwargs)
-        model = _build_model(config, vec_env, probe_env, out)
+        model = build_model(config, vec_env, probe_env, out)
         probe_env.close()
+        if initial is not None:
+            model.policy.load_state_dict(initial.policy.state_dict())
         start_timesteps = 0
         curve_path.unlink(missing_ok=True)
     else:

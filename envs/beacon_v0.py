@@ -36,6 +36,7 @@ documented noise floor to the (extremely sharp) near-field likelihood (`filter_m
 | `others_relative_positions` | `2 (n_agents-1)` | `x_j - x_i` for j != i, by index | (R) |
 | `belief_grid`               | 64               | own belief's mass on 8 x 8 cells (2) | `[0, 1]` |
 | `mmse_estimate`             | 3                | own MMSE estimate `(x, y, psi)` (3) | (4) |
+| `belief_moments`            | 4 (optional)     | own belief's `(s_x, s_y, rho, mass)` (5) | (5) |
 
 (1) x, y within the reachable box: the domain and the start positions grown on every side by
 `max_speed * dt * max_cycles`; vx, vy in `[-max_speed, max_speed]`. (R) within plus or minus
@@ -45,6 +46,10 @@ reassigning `max_cycles` rebuilds the spaces.
 flat index `ix * 8 + iy` (x index slowest).
 (3) eq. 12, with the axial mean for `psi` (reported in `[0, pi)`).
 (4) `[0, 40] x [0, 40] x [0, 2 pi]`.
+(5) only with `belief_moments=True`: the standard deviations of the own belief's planar
+position (within the domain's width and height), their correlation (`[-1, 1]`) and the
+posterior mass within `localization_radius` of the MMSE estimate (`[0, 1]`); see
+:mod:`infoseek.envs.spaces`.
 
 **Actions.** ``action_type="continuous"``: a ``(2,)`` acceleration; values outside
 ``[-max_accel, max_accel]`` are clipped per axis, NaN/inf raise ``ValueError``.
@@ -87,7 +92,7 @@ infoseek.envs.beacon_v0.parallel_env(
     start_center=(5.0, 5.0), start_spacing=None, start_positions=None, min_separation=1.0,
     action_type="continuous", n_discrete_actions=5, separation_penalty=1.0,
     resample_threshold=1.0, roughening=0.2, tempering_ess=0.0, filter_max_snr=5.0,
-    entropy_bins=None, belief_grid=(8, 8),
+    entropy_bins=None, belief_grid=(8, 8), belief_moments=False,
     localization_radius=1.0, localization_mass=0.9, terminate_on_localization=False,
     comm_range=inf, message_loss=0.0, belief_in_infos=False, render_mode=None,
 )
@@ -132,7 +137,8 @@ infoseek.envs.beacon_v0.parallel_env(
   ``env.unwrapped.config.filter_sensor``), so they plan with what the beliefs apply. `None`
   evaluates the exact likelihood in the filters, and so in the planners, as well (the floor is
   a filter setting that the paper does not specify, a documented deviation).
-* `belief_grid` ((8, 8)); `localization_radius` (1.0 unit); `localization_mass` (0.9);
+* `belief_moments` (False): append the belief's spread and posterior mass to every
+  observation. `belief_grid` ((8, 8)); `localization_radius` (1.0 unit); `localization_mass` (0.9);
   `terminate_on_localization` (False).
 * `comm_range` (inf units), `message_loss` (0.0): communication model; an agent always
   receives its own observation.

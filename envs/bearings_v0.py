@@ -32,6 +32,7 @@ trained; the slices are in ``env.unwrapped.config.observation_layout``):
 | `others_relative_positions` | `2 (n_agents-1)` | `x_j - x_i` for j != i, by index | (R) |
 | `belief_grid`               | 64               | own belief's mass on 8 x 8 cells (2) | `[0, 1]` |
 | `mmse_estimate`             | 2                | own MMSE estimate `(x, y)` (eq. 12) | `[0, 40]` |
+| `belief_moments`            | 4 (optional)     | own belief's `(s_x, s_y, rho, mass)` (3) | (3) |
 
 (1) x, y within the reachable box: the domain and the start positions grown on every side by
 `speed * dt * max_cycles` (airplanes may leave the domain, but not that box); heading in
@@ -39,6 +40,10 @@ trained; the slices are in ``env.unwrapped.config.observation_layout``):
 finite (:mod:`infoseek.envs.spaces`); reassigning `max_cycles` rebuilds the spaces.
 (2) position mass of each cell of a regular 8 x 8 grid over the domain, cell `[ix, iy]` at
 flat index `ix * 8 + iy` (x index slowest).
+(3) only with `belief_moments=True`: the standard deviations of the own belief's planar
+position (within the domain's width and height), their correlation (`[-1, 1]`) and the
+posterior mass within `localization_radius` of the MMSE estimate (`[0, 1]`); see
+:mod:`infoseek.envs.spaces`.
 
 **Actions.** ``action_type="continuous"``: a ``(1,)`` turn rate; values outside
 ``[-max_turn_rate, max_turn_rate]`` are clipped (not rejected), NaN/inf raise ``ValueError``.
@@ -83,7 +88,7 @@ infoseek.envs.bearings_v0.parallel_env(
     start_center=(5.0, 5.0), start_spacing=None, start_positions=None, min_separation=1.0,
     action_type="continuous", n_discrete_actions=5, separation_penalty=1.0,
     resample_threshold=1.0, roughening=0.2, tempering_ess=None, filter_max_snr=None,
-    entropy_bins=None, belief_grid=(8, 8),
+    entropy_bins=None, belief_grid=(8, 8), belief_moments=False,
     localization_radius=1.0, localization_mass=0.9, terminate_on_localization=False,
     comm_range=inf, message_loss=0.0, belief_in_infos=False, render_mode=None,
 )
@@ -123,6 +128,8 @@ infoseek.envs.bearings_v0.parallel_env(
 * `filter_max_snr` (None): filter noise floor for sensors that support it (the beacon; see
   :mod:`infoseek.envs.search_env`); the bearing sensor does not, so it must stay `None`.
 * `belief_grid` ((8, 8)): coarse belief-mass grid in the observation.
+* `belief_moments` (False): append the belief's spread and posterior mass to every
+  observation (what a policy needs once the belief is smaller than a grid cell).
 * `localization_radius` (1.0 unit), `localization_mass` (0.9), `terminate_on_localization`
   (False).
 * `comm_range` (inf units): observations are shared only between vehicles at most this far

@@ -554,6 +554,20 @@ class BeliefBatch:
         pairs = zip(particles, weights, strict=True)
         return np.array([fixed_grid_entropy(p, w, self.space, bins) for p, w in pairs])
 
+    def position_spread(
+        self, centers: FloatArray, rows: NDArray[np.intp] | None = None
+    ) -> FloatArray:
+        """``(K, 3)`` weighted ``(s_x, s_y, rho)`` of the planar positions about ``(K, >= 2)``
+        ``centers`` (the MMSE estimates): standard deviations and correlation, ``rho = 0``
+        where a deviation is 0."""
+        particles, weights = self._rows(rows)
+        offsets = particles[:, :, :2] - centers[:, None, :2]
+        second = np.einsum("kn,kni,knj->kij", weights, offsets, offsets)
+        deviations = np.sqrt(np.maximum(np.diagonal(second, axis1=1, axis2=2), 0.0))
+        scale = deviations[:, 0] * deviations[:, 1]
+        rho = np.divide(second[:, 0, 1], scale, out=np.zeros_like(scale), where=scale > 0.0)
+        return np.column_stack([deviations, np.clip(rho, -1.0, 1.0)])
+
     def mass_grid(self, shape: tuple[int, int], rows: NDArray[np.intp] | None = None) -> FloatArray:
         """``(K, gx, gy)`` posterior position mass on a coarse grid over the position box."""
         particles, weights = self._rows(rows)

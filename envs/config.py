@@ -193,6 +193,9 @@ class SearchConfig:
             the attribute ``filter_sensor`` (the sensor itself when ``None``).
         entropy_bins: Histogram grid of the belief entropy estimate (``None``: belief default).
         belief_grid: ``(gx, gy)`` coarse belief-mass grid in the observation.
+        belief_moments: Append the block ``belief_moments`` to every observation: the standard
+            deviations and correlation of the own belief's planar position and its posterior
+            mass near the MMSE estimate (:mod:`infoseek.envs.spaces`). Off by default.
         localization_radius: Radius (distance units, > 0) of the posterior-mass criterion.
         localization_mass: Mass within ``localization_radius`` of the MMSE estimate that counts
             as localised, in ``(0, 1]``.
@@ -236,6 +239,7 @@ class SearchConfig:
         filter_max_snr: float | None = None,
         entropy_bins: tuple[int, ...] | None = None,
         belief_grid: tuple[int, int] = (8, 8),
+        belief_moments: bool = False,
         localization_radius: float = 1.0,
         localization_mass: float = 0.9,
         terminate_on_localization: bool = False,
@@ -326,6 +330,9 @@ class SearchConfig:
         ):
             raise ValueError(f"belief_grid must be two integers >= 1, got {belief_grid!r}")
         self.belief_grid = (int(belief_grid[0]), int(belief_grid[1]))
+        if not isinstance(belief_moments, bool | np.bool_):
+            raise TypeError(f"belief_moments must be True or False, got {belief_moments!r}")
+        self.belief_moments = bool(belief_moments)
         if render_mode not in RENDER_MODES:
             raise ValueError(f"render_mode must be one of {RENDER_MODES}, got {render_mode!r}")
         self.render_mode = render_mode
@@ -484,7 +491,9 @@ class SearchConfig:
             self.n_agents,
             self.belief_grid,
         )
-        self.observation_layout, obs_low, obs_high = observation_layout(*geometry)
+        self.observation_layout, obs_low, obs_high = observation_layout(
+            *geometry, belief_moments=self.belief_moments
+        )
         self.obs_low = obs_low.astype(np.float32)
         self.obs_high = obs_high.astype(np.float32)
         self.observation_space = gymnasium.spaces.Box(

@@ -125,6 +125,7 @@ class SearchCore:
         self.masses = np.zeros((b, a))
         self.estimates = np.zeros((b, a, d))
         self.grids = np.zeros((b, a, config.belief_grid[0] * config.belief_grid[1]))
+        self.moments = np.zeros((b, a, 4 if config.belief_moments else 0))
         self.last_measurements: FloatArray | None = None
         self.last_reception: BoolArray | None = None
         self.beliefs = BeliefBatch(
@@ -283,6 +284,10 @@ class SearchCore:
         grids = self.beliefs.mass_grid(config.belief_grid, rows)
         self.grids.reshape(-1, self.grids.shape[-1])[k] = grids.reshape(grids.shape[0], -1)
         self.ess.reshape(-1)[k] = self.beliefs.ess(rows)
+        if config.belief_moments:
+            moments = self.moments.reshape(-1, 4)
+            moments[k, :3] = self.beliefs.position_spread(estimates, rows)
+            moments[k, 3] = self.masses.reshape(-1)[k]
 
     def observations(self) -> ObsArray:
         """``(B, A, obs_dim)`` float32 observations (layout ``config.observation_layout``)."""
@@ -291,7 +296,8 @@ class SearchCore:
         positions = config.vehicle.position(self.states)
         relative = positions[:, None, :, :] - positions[:, :, None, :]  # [b, i, j] = x_j - x_i
         others = relative[:, ~np.eye(a, dtype=bool)].reshape(b, a, 2 * (a - 1))
-        flat = np.concatenate([self.states, others, self.grids, self.estimates], axis=2)
+        blocks = [self.states, others, self.grids, self.estimates, self.moments]
+        flat = np.concatenate(blocks, axis=2)
         out = flat.astype(np.float32)  # float32 rounding can step past a bound: clip
         np.maximum(out, config.obs_low, out=out)
         return np.minimum(out, config.obs_high, out=out)

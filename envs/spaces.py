@@ -11,7 +11,13 @@ this box and relative positions by its size; vehicle velocities by ``+-max_speed
 **Observation of agent i** (the blocks ``observation_layout`` names, in order): ``own_state``
 (its vehicle state), ``others_relative_positions`` (``x_j - x_i`` for ``j != i`` by index),
 ``belief_grid`` (its belief's mass on the coarse grid, x index slowest), ``mmse_estimate``
-(its belief's MMSE estimate, eq. 12, every target coordinate).
+(its belief's MMSE estimate, eq. 12, every target coordinate) and, with
+``belief_moments=True``, ``belief_moments``: the own belief's planar position spread
+``(s_x, s_y, rho, m)`` -- the weighted standard deviations
+``s_x = sqrt(sum_n w_n (x_n - xbar)^2)`` and ``s_y`` (bounded by the domain's width and
+height), the correlation ``rho = c_xy / (s_x s_y)`` in ``[-1, 1]`` (0 when a deviation is 0)
+and the posterior mass within the localisation radius of the MMSE estimate, in ``[0, 1]``.
+The 8 x 8 grid cannot show the shape of a belief smaller than a cell; these four numbers can.
 
 **Centralised state** (``state_layout``; what a centralised critic should see, never the true
 target): ``vehicle_states`` (every vehicle's state, agent 0 first), ``belief_grids`` (every
@@ -90,6 +96,8 @@ def observation_layout(
     space: TargetSpace,
     n_agents: int,
     belief_grid: tuple[int, int],
+    *,
+    belief_moments: bool = False,
 ) -> Layout:
     """Layout and bounds of one agent's observation (module docstring).
 
@@ -100,18 +108,23 @@ def observation_layout(
         space: The target space (its position box bounds the MMSE estimate).
         n_agents: Vehicles in the team.
         belief_grid: ``(gx, gy)`` cells of the coarse belief grid.
+        belief_moments: Append the ``belief_moments`` block.
     """
     state_low, state_high = _state_bounds(state_names, max_speed, box)
     span = np.tile(box[1] - box[0], n_agents - 1)
     n_grid = belief_grid[0] * belief_grid[1]
-    return _assemble(
-        [
-            ("own_state", state_low, state_high),
-            ("others_relative_positions", -span, span),
-            ("belief_grid", np.zeros(n_grid), np.ones(n_grid)),
-            ("mmse_estimate", space.low_array.copy(), space.high_array.copy()),
-        ]
-    )
+    blocks = [
+        ("own_state", state_low, state_high),
+        ("others_relative_positions", -span, span),
+        ("belief_grid", np.zeros(n_grid), np.ones(n_grid)),
+        ("mmse_estimate", space.low_array.copy(), space.high_array.copy()),
+    ]
+    if belief_moments:
+        size = space.high_array[:2] - space.low_array[:2]
+        blocks.append(
+            ("belief_moments", np.array([0.0, 0.0, -1.0, 0.0]), np.array([*size, 1.0, 1.0]))
+        )
+    return _assemble(blocks)
 
 
 def state_layout(

@@ -18,6 +18,18 @@ hyperparameters (a ``--hyper`` value that differs from the saved run's is refuse
 ``eval.csv`` after that count are dropped. Every ``--hyper`` value is type- and range-checked
 before anything is written. Ctrl-C exits with code 130 and keeps the checkpoints.
 
+**Imitation** (``--algo dagger``): behaviour cloning of an MI planner (``--expert``, default
+``pairwise``) and then DAgger iterations, into the same run-directory layout
+(:mod:`infoseek.baselines.imitation`)::
+
+    infoseek train --algo dagger --env bearings_v0 --agents 4 --out runs/dagger
+
+``--timesteps`` does not apply; the amount of data is ``--iterations``, ``--episodes`` and
+``--episode-steps``. The observation gains the belief-moment block (``belief_moments=true``)
+unless ``--env-kwarg belief_moments=false``. **Fine-tuning**: ``--algo ppo --init
+DIR/model.zip`` starts PPO from the weights of that model (its observation and action spaces
+must be this run's).
+
 Requires the optional RL dependencies (``pip install 'infoseek[rl]'``).
 """
 
@@ -25,6 +37,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Mapping
 from pathlib import Path
 
 from infoseek.envs import registry
@@ -45,7 +58,10 @@ EXIT_INTERRUPTED = 130
 def add_train_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``infoseek train``."""
     parser.add_argument(
-        "--algo", choices=("ppo", "sac", "td3"), default="ppo", help="algorithm (default ppo)"
+        "--algo",
+        choices=("ppo", "sac", "td3", "dagger"),
+        default="ppo",
+        help="algorithm (default ppo; dagger: imitation of an MI planner)",
     )
     parser.add_argument(
         "--env", default="bearings_v0", choices=sorted(registry), help="environment id"
@@ -54,8 +70,8 @@ def add_train_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--timesteps",
         type=int,
-        required=True,
-        help="total agent transitions to train for (including resumed ones)",
+        default=None,
+        help="total agent transitions to train for (including resumed ones; ppo/sac/td3)",
     )
     parser.add_argument("--out", type=Path, required=True, help="run directory (resumable)")
     parser.add_argument("--seed", type=int, default=0, help="seed (default 0)")
@@ -109,6 +125,25 @@ def add_train_arguments(parser: argparse.ArgumentParser) -> None:
         "--torch-threads", type=int, default=1, help="torch CPU threads (default 1)"
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument(
+        "--init", type=Path, default=None, help="start from this model's weights (ppo only)"
+    )
+    imitation = parser.add_argument_group("imitation (--algo dagger)")
+    imitation.add_argument(
+        "--expert", default="pairwise", help="planner imitated (default pairwise)"
+    )
+    imitation.add_argument(
+        "--iterations", type=int, default=8, help="DAgger iterations after cloning (default 8)"
+    )
+    imitation.add_argument(
+        "--episodes", type=int, default=48, help="labelled episodes per iteration (default 48)"
+    )
+    imitation.add_argument(
+        "--episode-steps", type=int, default=40, help="steps per labelled episode (default 40)"
+    )
+    imitation.add_argument(
+        "--epochs", type=int, default=20, help="passes over the labelled set per iteration"
+    )
 
 
 def run_train(args: argparse.Namespace) -> int:
@@ -128,6 +163,10 @@ def run_train(args: argparse.Namespace) -> int:
     check_writable_directory(args.out)
     check_seed(args.seed)
     env_kwargs = environment_kwargs(args)
+    if args.algo == "dagger":
+        return _run_imitation(args, env_kwargs)
+    if args.timesteps is None:
+        raise ValueError(f"--timesteps is required with --algo {args.algo}")
     hyper: dict[str, object] = {}
     for key, value in args.hyper:
         if key in hyper and hyper[key] != value:
@@ -151,7 +190,12 @@ def run_train(args: argparse.Namespace) -> int:
         checkpoint_freq=args.checkpoint_freq,
         torch_threads=args.torch_threads,
         features=args.features,
+        init_from=None if args.init is None else str(args.init),
     )
+    if config.init_from is not None:
+        from infoseek.baselines.training import check_initial_model
+
+        check_initial_model(config)
     print(
         f"train {config.algo} on {config.env_id} ({config.n_agents} agents, "
         f"{config.action_type} actions), {config.timesteps} timesteps, seed {config.seed} "
@@ -181,6 +225,59 @@ def run_train(args: argparse.Namespace) -> int:
     if result.start_timesteps >= config.timesteps and result.last_evaluation is None:
         print(f"{result.model_path} already has {result.timesteps} timesteps; nothing to do")
     print(f"wrote {result.model_path} ({result.timesteps} timesteps, {result.wall_seconds:.1f} s)")
+    print(f"wrote {result.config_path}")
+    print(f"training curve: {result.curve_path}")
+    return 0
+
+
+def _run_imitation(args: argparse.Namespace, env_kwargs: dict[str, object]) -> int:
+    """``infoseek train --algo dagger`` (module docstring)."""
+    from infoseek.baselines.imitation import ImitationConfig, train_imitation
+
+    if args.hyper or args.init is not None or args.timesteps is not None:
+        raise ValueError("--hyper, --init and --timesteps do not apply to --algo dagger")
+    if args.action_type != "continuous":
+        raise ValueError("--algo dagger trains continuous actions (the planners' controls)")
+    config = ImitationConfig(
+        env_id=args.env,
+        n_agents=args.agents,
+        expert=args.expert,
+        iterations=args.iterations,
+        episodes_per_iteration=args.episodes,
+        episode_steps=args.episode_steps,
+        epochs=args.epochs,
+        features=args.features,
+        seed=args.seed,
+        num_cpus=args.num_cpus,
+        eval_episodes=args.eval_episodes,
+        env_kwargs={"belief_moments": True, **env_kwargs},
+    )
+    config.check_environment()
+    print(
+        f"train dagger on {config.env_id} ({config.n_agents} agents), expert {config.expert}, "
+        f"{config.iterations} iterations x {config.episodes_per_iteration} episodes, seed "
+        f"{config.seed} -> {args.out}",
+        flush=True,
+    )
+
+    def report(row: Mapping[str, float]) -> None:
+        print(
+            f"  iteration {int(row['iteration'])}: {int(row['labelled_states'])} labelled "
+            f"states, fit loss {row['fit_loss']:.4f}, final posterior mass "
+            f"{row['mean_final_posterior_mass']:.3f}, mean posterior mass "
+            f"{row['mean_posterior_mass']:.3f} ({row['wall_seconds']:.0f} s)",
+            flush=True,
+        )
+
+    try:
+        result = train_imitation(config, args.out, on_iteration=report)
+    except KeyboardInterrupt:
+        print("infoseek train: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    print(
+        f"wrote {result.model_path} ({result.labelled_states} labelled states, "
+        f"{result.wall_seconds:.1f} s)"
+    )
     print(f"wrote {result.config_path}")
     print(f"training curve: {result.curve_path}")
     return 0
