@@ -23,15 +23,17 @@ reward (``infoseek train --algo ppo --init DIR/model.zip``). Deterministic actin
 
 **Run directory** ``out``: ``model.zip`` (a Stable-Baselines3 PPO archive, loaded by
 :func:`~infoseek.baselines.load_policy`), ``config.json`` (what :func:`train` writes, plus
-``trainer: "dagger"`` and the imitation settings), ``eval.csv`` (one row per iteration: the
-learner alone on seeded evaluation episodes, the learning curve) and ``iterations/`` (the
-model after each iteration; the workers load it to drive the next one).
+``trainer: "dagger"``, the imitation settings and ``expert_evaluation``, the expert on the
+same evaluation episodes), ``eval.csv`` (one row per iteration: the learner alone on seeded
+evaluation episodes, the learning curve); ``iterations/`` holds the model after each
+iteration while the run lasts (the workers load it to drive the next one).
 """
 
 from __future__ import annotations
 
 import csv
 import json
+import shutil
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field
@@ -111,7 +113,7 @@ class ImitationConfig:
     features: str = "egocentric"
     seed: int = 0
     num_cpus: int = 0
-    eval_episodes: int = 20
+    eval_episodes: int = 50
     env_kwargs: Mapping[str, Any] = field(default_factory=lambda: {"belief_moments": True})
 
     def __post_init__(self) -> None:
@@ -304,8 +306,10 @@ def train_imitation(
     curve_path = out / CURVE_FILE
     curve_path.unlink(missing_ok=True)
     eval_kwargs = {**config.full_env_kwargs(), "max_cycles": config.episode_steps}
-    eval_env = make(config.env_id, **eval_kwargs)
+    eval_env = make(config.env_id, **eval_kwargs, belief_in_infos=True)
     seeds = evaluation_seeds(config.eval_episodes)
+    expert = build_expert(config.expert, eval_env, seed=config.seed)
+    expert_evaluation = evaluate_policy(expert, eval_env, seeds).summary()
     pool = rollout_pool(config.num_cpus)
     data: LabelledBatch | None = None
     expert_seconds, row = 0.0, {}
@@ -348,10 +352,14 @@ def train_imitation(
         eval_env.close()
     assert data is not None  # at least the cloning iteration ran
     model.save(str(out / MODEL_FILE))
+    shutil.rmtree(out / ITERATION_DIR)
     wall = time.perf_counter() - start
-    config_path = _write_config(
-        out, config, {"labelled_states": int(data.observations.shape[0]), "wall_seconds": wall}
-    )
+    extra = {
+        "labelled_states": int(data.observations.shape[0]),
+        "wall_seconds": wall,
+        "expert_evaluation": expert_evaluation,
+    }
+    config_path = _write_config(out, config, extra)
     return ImitationResult(
         model_path=out / MODEL_FILE,
         config_path=config_path,

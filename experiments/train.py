@@ -113,7 +113,10 @@ def add_train_arguments(parser: argparse.ArgumentParser) -> None:
         help="timesteps between evaluations (0: only at the end; default 20000)",
     )
     parser.add_argument(
-        "--eval-episodes", type=int, default=5, help="seeded episodes per evaluation (default 5)"
+        "--eval-episodes",
+        type=int,
+        default=None,
+        help="seeded episodes per evaluation (default 5; dagger: 50)",
     )
     parser.add_argument(
         "--checkpoint-freq",
@@ -186,7 +189,7 @@ def run_train(args: argparse.Namespace) -> int:
         env_kwargs=env_kwargs,
         hyperparameters=hyper,
         eval_freq=args.eval_freq,
-        eval_episodes=args.eval_episodes,
+        eval_episodes=5 if args.eval_episodes is None else args.eval_episodes,
         checkpoint_freq=args.checkpoint_freq,
         torch_threads=args.torch_threads,
         features=args.features,
@@ -249,7 +252,7 @@ def _run_imitation(args: argparse.Namespace, env_kwargs: dict[str, object]) -> i
         features=args.features,
         seed=args.seed,
         num_cpus=args.num_cpus,
-        eval_episodes=args.eval_episodes,
+        eval_episodes=50 if args.eval_episodes is None else args.eval_episodes,
         env_kwargs={"belief_moments": True, **env_kwargs},
     )
     config.check_environment()
