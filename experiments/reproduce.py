@@ -12,7 +12,10 @@ Part of the command line's top layer: each study lives in :mod:`infoseek.experim
   (:mod:`~infoseek.experiments.studies.grid_posterior`);
 * ``horizon``: the receding-horizon planner and the clairvoyant reference added to a Fig. 1
   store (:mod:`~infoseek.experiments.studies.horizon`; the Fig. 1 groups are run first, or
-  resumed, since the study compares with them).
+  resumed, since the study compares with them);
+* ``learned``: policies trained by imitating the planners, five training seeds per setting,
+  benchmarked against the planners (:mod:`~infoseek.experiments.studies.learned`; a seed whose
+  run directory holds a model is not retrained).
 
 Trial studies resume: a rerun with every trial stored only redraws. Every study ends by writing
 its results page (``--page FILE``, default ``OUT/page.md``; :mod:`infoseek.experiments.pages`).
@@ -29,7 +32,7 @@ from infoseek.experiments.commands import add_execution_arguments, execution, ru
 from infoseek.experiments.pages.fig2_record import write_fig2_record
 from infoseek.experiments.pages.registry import MIN_PAGE_TRIALS, write_page
 from infoseek.experiments.plot import plot_fig1_from_store
-from infoseek.experiments.studies import ablation, decisions, fig2, grid_posterior
+from infoseek.experiments.studies import ablation, decisions, fig2, grid_posterior, learned
 from infoseek.experiments.studies.beacon import beacon_plan
 from infoseek.experiments.studies.fig1 import fig1_plan
 from infoseek.experiments.studies.horizon import horizon_plans
@@ -37,7 +40,7 @@ from infoseek.experiments.studies.horizon import horizon_plans
 __all__ = ["STUDIES", "add_reproduce_arguments", "fig1_plan", "run_reproduce_command"]
 
 #: The studies ``infoseek reproduce`` runs.
-STUDIES = ("fig1", "fig2", "beacon", "ablation", "grid_posterior", "horizon")
+STUDIES = ("fig1", "fig2", "beacon", "ablation", "grid_posterior", "horizon", "learned")
 
 
 def add_reproduce_arguments(parser: argparse.ArgumentParser) -> None:
@@ -46,8 +49,9 @@ def add_reproduce_arguments(parser: argparse.ArgumentParser) -> None:
         "figure",
         choices=STUDIES,
         help="which study: the paper's fig1 or fig2, the beacon Monte Carlo study, the Claim A "
-        "ablation, the filter against an exact grid posterior, or the receding-horizon planner "
-        "and the clairvoyant reference added to a Fig. 1 store",
+        "ablation, the filter against an exact grid posterior, the receding-horizon planner "
+        "and the clairvoyant reference added to a Fig. 1 store, or policies that imitate the "
+        "planners (learned)",
     )
     parser.add_argument(
         "--trials",
@@ -112,6 +116,8 @@ def _run_study(out: Path, args: argparse.Namespace) -> int:
         return _ablation(out, args)
     if args.figure == "horizon":
         return _horizon(out, args)
+    if args.figure == "learned":
+        return _learned(out, args)
     if args.figure == "beacon":
         plan = beacon_plan(args.trials or 500, args.steps, args.particles, args.seed)
     else:
@@ -140,6 +146,37 @@ def _horizon(out: Path, args: argparse.Namespace) -> int:
         if code != 0:
             return code
     for path in plot_fig1_from_store(store, out / "fig1"):
+        print(f"wrote {path}")
+    return 0
+
+
+def _learned(out: Path, args: argparse.Namespace) -> int:
+    """``infoseek reproduce learned``: every setting's missing training seeds (``infoseek
+    train --algo dagger``), then the benchmark stores (resumed) and the learning curves."""
+    if any(getattr(args, name) is not None for name in ("trials", "steps", "particles")):
+        raise ValueError("reproduce learned: --trials/--steps/--particles are the study's")
+    if args.seed != 0:
+        raise ValueError("reproduce learned: --seed is the study's (0)")
+    from infoseek.experiments.train import add_train_arguments, run_train
+
+    _, workers = execution(args)
+    parser = argparse.ArgumentParser(prog="infoseek train")
+    add_train_arguments(parser)
+    for setting in learned.SETTINGS:
+        for seed, run in zip(
+            learned.TRAINING_SEEDS, learned.run_directories(out, setting.name), strict=True
+        ):
+            if (run / "model.zip").is_file():
+                continue
+            arguments = setting.train_command(seed, run)[1:]
+            code = run_train(parser.parse_args([*arguments, "--num-cpus", str(workers)]))
+            if code != 0:
+                return code
+    for bench in learned.BENCHES:
+        code, _ = run_plan(bench.plan(out), out / bench.name, args)
+        if code != 0:
+            return code
+    for path in learned.plot_learning_curves(out, out / "learning_curves"):
         print(f"wrote {path}")
     return 0
 

@@ -18,6 +18,7 @@ from infoseek.experiments.pages.fig1 import fig1_page
 from infoseek.experiments.pages.fig2 import fig2_page
 from infoseek.experiments.pages.grid_posterior import grid_posterior_page
 from infoseek.experiments.pages.horizon import horizon_page
+from infoseek.experiments.pages.learned import learned_page
 from infoseek.experiments.pages.markdown import display_path
 from infoseek.experiments.pages.rl import rl_page
 
@@ -77,6 +78,7 @@ PAGES: dict[str, Page] = {
         Page("horizon", "fig1", horizon_page),
         Page("rl", "rl", rl_page),
         Page("grid_posterior", "grid_posterior", grid_posterior_page),
+        Page("learned", "learned", learned_page),
     )
 }
 
