@@ -36,6 +36,7 @@ import json
 import shutil
 import time
 from collections.abc import Callable, Mapping
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -252,6 +253,26 @@ def _policy_mean(policy: Any, observations: torch.Tensor) -> torch.Tensor:
     return policy.action_net(policy.mlp_extractor.forward_actor(features))
 
 
+def _labelled_episodes(
+    config: ImitationConfig, iteration: int, out: Path, pool: ProcessPoolExecutor | None
+) -> tuple[LabelledBatch, float]:
+    """The expert-labelled episodes of ``iteration`` and their ``beta`` (module docstring):
+    the expert drives at iteration 0, the model saved after the previous iteration with
+    probability ``1 - beta`` per step afterwards."""
+    beta = 1.0 if iteration == 0 else config.beta_decay**iteration
+    learner = None if iteration == 0 else str(out / ITERATION_DIR / f"{iteration - 1}.zip")
+    task = RolloutTask(
+        env_id=config.env_id,
+        env_kwargs=config.full_env_kwargs(),
+        expert=config.expert,
+        model_path=learner,
+        beta=beta,
+        seeds=_episode_seeds(config, iteration),
+        steps=config.episode_steps,
+    )
+    return run_rollouts(task, config.num_cpus, pool), beta
+
+
 def _write_curve_row(path: Path, row: Mapping[str, float]) -> None:
     new = not path.is_file()
     with path.open("a", newline="") as handle:
@@ -315,18 +336,7 @@ def train_imitation(
     expert_seconds, row = 0.0, {}
     try:
         for iteration in range(config.iterations + 1):
-            beta = 1.0 if iteration == 0 else config.beta_decay**iteration
-            learner = None if iteration == 0 else str(out / ITERATION_DIR / f"{iteration - 1}.zip")
-            task = RolloutTask(
-                env_id=config.env_id,
-                env_kwargs=config.full_env_kwargs(),
-                expert=config.expert,
-                model_path=learner,
-                beta=beta,
-                seeds=_episode_seeds(config, iteration),
-                steps=config.episode_steps,
-            )
-            batch = run_rollouts(task, config.num_cpus, pool)
+            batch, beta = _labelled_episodes(config, iteration, out, pool)
             expert_seconds += batch.expert_seconds
             data = batch if data is None else LabelledBatch.concatenate([data, batch])
             loss = fit_policy(model, data, config, rng)
@@ -347,9 +357,8 @@ def train_imitation(
     finally:
         if pool is not None:
             pool.shutdown()
-        vec_env.close()
-        probe.close()
-        eval_env.close()
+        for env in (vec_env, probe, eval_env):
+            env.close()
     assert data is not None  # at least the cloning iteration ran
     model.save(str(out / MODEL_FILE))
     shutil.rmtree(out / ITERATION_DIR)

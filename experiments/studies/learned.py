@@ -108,7 +108,11 @@ SETTINGS: tuple[Setting, ...] = (
     Setting("bearings_pairwise", "bearings_v0", "pairwise", True),
     Setting("bearings_pairwise_grid_only", "bearings_v0", "pairwise", False),
     Setting(
-        "beacon_single", "beacon_v0", "single", True, ("--iterations", "5", "--episodes", "40")
+        "beacon_single",
+        "beacon_v0",
+        "single",
+        True,
+        ("--iterations", "5", "--episodes", "40", "--eval-episodes", "20"),
     ),
 )
 
