@@ -33,6 +33,10 @@ import numpy as np
 import torch
 from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.distributions import (
+    CategoricalDistribution,
+    DiagGaussianDistribution,
+)
 from stable_baselines3.common.policies import ActorCriticPolicy
 
 __all__ = [
@@ -54,14 +58,17 @@ CONFIG_FILE = "config.json"
 #: Trained models installed with the package: ``SHIPPED_MODELS_DIR/<name>/`` holds
 #: ``model.zip``, ``config.json`` (how it was trained) and ``eval.csv`` (its training curve).
 SHIPPED_MODELS_DIR = Path(__file__).resolve().parent / "models"
-DEFAULT_SHIPPED_MODEL = "ppo_bearings_v0_4agents"
+DEFAULT_SHIPPED_MODEL = "dagger_bearings_v0_4agents"
 
 
 def shipped_model(name: str = DEFAULT_SHIPPED_MODEL) -> Path:
     """Path of the ``model.zip`` of a model shipped with infoseek.
 
-    ``load_policy(shipped_model(), env)`` gives the PPO policy trained on ``bearings_v0`` with 4
-    agents (the README's RL section says how it was trained and how it compares).
+    ``load_policy(shipped_model(), env)`` gives the policy trained to imitate
+    ``PairwiseNodePlanner`` on ``bearings_v0`` with 4 agents and ``belief_moments=True`` (build
+    ``env`` with that keyword); ``"dagger_beacon_v0_4agents"`` imitates ``SingleNodePlanner``
+    on ``beacon_v0``; ``"ppo_bearings_v0_4agents"`` is the earlier PPO policy. How they were
+    trained and how they compare: ``docs/results/learned.md`` and ``docs/results/rl.md``.
 
     Args:
         name: Directory name under :data:`SHIPPED_MODELS_DIR`.
@@ -217,20 +224,29 @@ class TrainedPolicy:
         return {agent: np.asarray(actions[k], dtype=np.float32) for k, agent in enumerate(agents)}
 
     def _deterministic_actions(self, stacked: np.ndarray) -> np.ndarray:
-        """``model.predict(stacked, deterministic=True)`` without its per-call checks for an
-        actor-critic policy (the same numbers: the mode of the distribution, clipped to the
-        Box as SB3 does); other models go through ``predict``."""
+        """``model.predict(stacked, deterministic=True)`` without its per-call checks, for an
+        actor-critic policy with a diagonal Gaussian or categorical action distribution: the
+        same numbers (the mean clipped to the Box as SB3 does, or the arg-max); other models go
+        through ``predict``."""
         policy = self.model.policy
-        if not isinstance(policy, ActorCriticPolicy) or policy.squash_output:
+        distribution = getattr(policy, "action_dist", None)
+        fast = isinstance(policy, ActorCriticPolicy) and not policy.squash_output
+        if not fast or not isinstance(
+            distribution, DiagGaussianDistribution | CategoricalDistribution
+        ):
             actions, _ = self.model.predict(stacked, deterministic=True)
             return np.asarray(actions)
+        actor: Any = policy  # an ActorCriticPolicy (checked above)
         with torch.inference_mode():
-            distribution = policy.get_distribution(torch.from_numpy(stacked))
-            actions = distribution.get_actions(deterministic=True).numpy()
+            features = actor.extract_features(
+                torch.from_numpy(stacked), actor.pi_features_extractor
+            )
+            output = actor.action_net(actor.mlp_extractor.forward_actor(features))
+        if isinstance(distribution, CategoricalDistribution):
+            return torch.argmax(output, dim=1).numpy()
         space = self.model.action_space
-        if isinstance(space, gymnasium.spaces.Box):
-            return np.clip(actions.reshape((-1, *space.shape)), space.low, space.high)
-        return actions.reshape(-1)
+        assert isinstance(space, gymnasium.spaces.Box)
+        return np.clip(output.numpy().reshape((-1, *space.shape)), space.low, space.high)
 
 
 def load_policy(

@@ -20,6 +20,9 @@ logical cores, Python, NumPy and the BLAS in use).
 * ``plan_pairwise_4_steps_2_11``: ``PairwiseNodePlanner.act`` as the README's example uses it
   (``make("bearings_v0", n_agents=4, belief_in_infos=True)``, ``from_env(env, seed=...)``),
   steps 2 to 11 of seeded episodes, ten calls per episode;
+* ``policy_act_bearings_4``, ``policy_act_beacon_4``: the shipped imitation policies'
+  ``act`` (``infoseek.baselines.shipped_model``, 4 agents, ``belief_moments=True``) at steps
+  2 to 11 of seeded episodes, as ``plan_pairwise_4_steps_2_11`` measures the planner;
 * ``*_first_step``: the first ``act`` of an episode (uniform prior), one per seeded episode;
 * ``decision_pairwise_4_uniform``: one coordinated decision of 4 bearing sensors at the uniform
   prior (N = 2000, 8 candidate positions per sensor on a circle of radius 1, eq. 22 with the
@@ -76,6 +79,8 @@ TARGETS: dict[str, float | None] = {
     "env_step_beacon_4": 2.5,
     "vec_step_bearings_64": None,
     "vec_step_bearings_64_2_workers": None,
+    "policy_act_bearings_4": None,
+    "policy_act_beacon_4": None,
 }
 BENCHMARKS = tuple(TARGETS)
 
@@ -247,6 +252,26 @@ def _new_user_pairwise_times(repeats: int) -> np.ndarray:
     return 1e3 * np.asarray(times)
 
 
+def _policy_act_times(env_id: str, model: str, repeats: int) -> np.ndarray:
+    """A shipped policy's ``act`` at steps 2 to 11 of seeded episodes (ten calls each)."""
+    from infoseek.baselines import load_policy, shipped_model
+    from infoseek.envs import make
+
+    env = make(env_id, n_agents=4, belief_moments=True)
+    policy = load_policy(shipped_model(model), env)
+    times: list[float] = []
+    for episode in range(-(-repeats // 10) + 1):  # episode 0 is the warm-up
+        observations, infos = env.reset(seed=200 + episode)
+        for step in range(1, 12):
+            start = time.perf_counter()
+            actions = policy.act(observations, infos)
+            if step >= 2 and episode > 0:
+                times.append(time.perf_counter() - start)
+            observations, _, _, _, infos = env.step(actions)
+    env.close()
+    return 1e3 * np.asarray(times)
+
+
 def coordinated_decision(rng: np.random.Generator) -> Callable[[], Any]:
     """The ``decision_pairwise_4_uniform`` benchmark as a callable (see the module docstring)."""
     from infoseek.envs.sensors import BearingSensor
@@ -372,6 +397,12 @@ def _run(selected: list[str], repeats: int) -> dict[str, np.ndarray]:
     for name, workers in (("vec_step_bearings_64", 1), ("vec_step_bearings_64_2_workers", 2)):
         if name in selected:
             results[name] = _vec_step_times(workers, repeats)
+    for name, env_id, model in (
+        ("policy_act_bearings_4", "bearings_v0", "dagger_bearings_v0_4agents"),
+        ("policy_act_beacon_4", "beacon_v0", "dagger_beacon_v0_4agents"),
+    ):
+        if name in selected:
+            results[name] = _policy_act_times(env_id, model, repeats)
     return results
 
 
