@@ -8,7 +8,8 @@ supersuit, torch, tensorboard); they are imported on first attribute access, so
   :class:`TrainedPolicy` with the planners' ``act(observations, infos)``; also the hook of
   ``infoseek bench --policy DIR/model.zip``.
 * :func:`shipped_model` -> path of a model trained by us and installed with the package
-  (``load_policy(shipped_model(), env)``: PPO on ``bearings_v0`` with 4 agents).
+  (``load_policy(shipped_model(), env)``: the imitation of the pairwise-node planner on
+  ``bearings_v0`` with 4 agents and ``belief_moments=True``).
 * :func:`train` with a :class:`TrainingConfig` -> run directory with ``model.zip``,
   ``config.json``, the ``eval.csv`` training curve, checkpoints and TensorBoard logs
   (:mod:`infoseek.baselines.training`).

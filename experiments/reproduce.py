@@ -152,7 +152,8 @@ def _horizon(out: Path, args: argparse.Namespace) -> int:
 
 def _learned(out: Path, args: argparse.Namespace) -> int:
     """``infoseek reproduce learned``: every setting's missing training seeds (``infoseek
-    train --algo dagger``), then the benchmark stores (resumed) and the learning curves."""
+    train --algo dagger``) and the PPO fine-tuning, then the benchmark stores (resumed) and the
+    learning curves."""
     if any(getattr(args, name) is not None for name in ("trials", "steps", "particles")):
         raise ValueError("reproduce learned: --trials/--steps/--particles are the study's")
     if args.seed != 0:
@@ -172,6 +173,10 @@ def _learned(out: Path, args: argparse.Namespace) -> int:
             code = run_train(parser.parse_args([*arguments, "--num-cpus", str(workers)]))
             if code != 0:
                 return code
+    if not (out / learned.FINE_TUNED / "model.zip").is_file():
+        code = run_train(parser.parse_args(learned.fine_tune_command(out)[1:]))
+        if code != 0:
+            return code
     for bench in learned.BENCHES:
         code, _ = run_plan(bench.plan(out), out / bench.name, args)
         if code != 0:

@@ -483,10 +483,33 @@ compared after 20 steps, where it still separates policies (same spaces, shorter
 
 
 def test_shipped_model_beats_random_policy():
-    env = envs.make("bearings_v0", n_agents=4, max_cycles=SHIPPED_HORIZON)
+    env = envs.make("bearings_v0", n_agents=4, max_cycles=SHIPPED_HORIZON, belief_moments=True)
     trained = evaluate_policy(load_policy(shipped_model(), env), env, range(50))
     random = evaluate_policy(RandomPolicy.from_env(env, seed=0), env, range(50))
     assert trained.final_posterior_mass.mean() > random.final_posterior_mass.mean()
+
+
+@pytest.mark.parametrize(
+    ("name", "setting", "env_id"),
+    [
+        ("dagger_bearings_v0_4agents", "bearings_pairwise", "bearings_v0"),
+        ("dagger_beacon_v0_4agents", "beacon_single", "beacon_v0"),
+    ],
+)
+def test_shipped_models_are_the_selected_seeds_of_the_study(name, setting, env_id):
+    """The shipped file is byte for byte the run the learned-policy study selects."""
+    from infoseek.experiments.studies.learned import read_run, run_directories, selected_run
+
+    results = Path(__file__).resolve().parents[1] / "experiments" / "results" / "learned"
+    chosen = selected_run([read_run(path) for path in run_directories(results, setting)])
+    shipped = shipped_model(name)
+    for file in ("model.zip", "config.json", "eval.csv"):
+        assert (shipped.parent / file).read_bytes() == (chosen.path / file).read_bytes()
+    env = envs.make(env_id, n_agents=4, belief_moments=True)
+    policy = load_policy(shipped, env)
+    observations, infos = env.reset(seed=0)
+    actions = policy.act(observations, infos)
+    assert all(env.action_space(a).contains(actions[a]) for a in env.agents)
 
 
 def test_shipped_model_lookup():
@@ -494,6 +517,26 @@ def test_shipped_model_lookup():
     assert path.name == "model.zip"
     config = json.loads(path.with_name("config.json").read_text())
     assert (config["algo"], config["env_id"], config["n_agents"]) == ("ppo", "bearings_v0", 4)
-    assert config["trained_timesteps"] >= config["timesteps"]
+    assert (config["trainer"], config["imitation"]["expert"]) == ("dagger", "pairwise")
+    previous = json.loads(
+        shipped_model("ppo_bearings_v0_4agents").with_name("config.json").read_text()
+    )
+    assert previous["trained_timesteps"] >= previous["timesteps"]
     with pytest.raises(ValueError, match="available"):
         shipped_model("no_such_model")
+
+
+@pytest.mark.parametrize(("algo", "action_type"), RUNS)
+def test_act_gives_the_actions_of_sb3_predict(trained_runs, algo, action_type):
+    """``TrainedPolicy.act`` skips ``predict``'s per-call checks but not its numbers."""
+    out, _ = trained_runs[algo, action_type]
+    env = tiny_env(action_type)
+    policy = load_policy(out / "model.zip", env)
+    observations, infos = env.reset(seed=4)
+    for _ in range(5):
+        actions = policy.act(observations, infos)
+        stacked = np.stack([observations[a] for a in observations])
+        expected, _ = policy.model.predict(stacked, deterministic=True)
+        got = np.stack([np.asarray(actions[a]) for a in observations]).reshape(expected.shape)
+        np.testing.assert_array_equal(got, expected)
+        observations, _, _, _, infos = env.step(actions)

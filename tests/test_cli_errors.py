@@ -43,6 +43,7 @@ def blocked(tmp_path: Path) -> Path:
         ),
         ("reproduce", ["reproduce", "fig2", "--steps", "1", "--out", "{out}"]),
         ("train", ["train", "--algo", "ppo", "--timesteps", "10", "--out", "{out}"]),
+        ("train", ["train", "--algo", "dagger", "--out", "{out}"]),
         (
             "timing",
             ["timing", "--repeats", "1", "--only", "env_step_bearings_4", "--json", "{out}"],

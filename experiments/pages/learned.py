@@ -16,10 +16,12 @@ from infoseek.experiments.pages.provenance import read_provenance, stores_sectio
 from infoseek.experiments.policy_labels import portable_label
 from infoseek.experiments.studies.learned import (
     BENCHES,
+    FINE_TUNED,
     MASS_STEP,
     SETTINGS,
     PairedResult,
     TrainingRun,
+    fine_tune_command,
     interquartile_mean,
     paired_result,
     read_run,
@@ -180,6 +182,49 @@ def _verdict(
     return f"The shipped seed ({chosen.seed}) against `{planner}`:\n\n" + "\n".join(lines)
 
 
+def _fine_tune_section(results: Path) -> str:
+    """The PPO fine-tuning against the pairwise-node planner and against its starting point."""
+    store = results / "bench_bearings"
+    steps = int(read_provenance(store).manifest["config"]["steps"])
+    trials = read_trials(store)
+    tuned = portable_label(results / FINE_TUNED / "model.zip", store)
+    runs = [read_run(path) for path in run_directories(results, "bearings_pairwise")]
+    start = selected_run(runs)
+    rows = []
+    for name, label in (
+        ("`pairwise`", "pairwise"),
+        (f"its start (seed {start.seed})", portable_label(start.path / "model.zip", store)),
+    ):
+        result = paired_result(trials, tuned, trials, label, steps)
+        rows.append(
+            [
+                name,
+                str(result.trials),
+                f"{result.policy_ttl:.2f} vs {result.planner_ttl:.2f}",
+                _gain(result.ttl_gain, 2),
+                f"{result.policy_mass:.3f} vs {result.planner_mass:.3f}",
+                _gain(result.mass_gain, 3),
+            ]
+        )
+    header = [
+        "fine-tuned policy against",
+        "paired trials",
+        "time to localise: fine-tuned vs other",
+        "other - fine-tuned (one-sided Wilcoxon: fine-tuned faster)",
+        f"mass at step {MASS_STEP}: fine-tuned vs other",
+        "fine-tuned - other (one-sided Wilcoxon: fine-tuned higher)",
+    ]
+    command = "infoseek " + " ".join(fine_tune_command(display_path(results)))
+    return "\n\n".join(
+        [
+            "PPO on the environment's entropy-reduction reward, starting from the shipped "
+            "seed's weights (one run, the `--init` option of `infoseek train`):",
+            code_block(command, "bash"),
+            table(header, rows),
+        ]
+    )
+
+
 def learned_page(results: str | os.PathLike[str], page: str | os.PathLike[str]) -> str:
     """The Markdown of the learned-policy page.
 
@@ -195,6 +240,7 @@ def learned_page(results: str | os.PathLike[str], page: str | os.PathLike[str]) 
         f"--page {display_path(page)}",
         "# the same, step by step:",
         *_train_commands(results),
+        "infoseek " + " ".join(fine_tune_command(display_path(results))),
     ]
     for provenance, bench in zip(provenances, BENCHES, strict=True):
         store = results / bench.name
@@ -225,6 +271,8 @@ def learned_page(results: str | os.PathLike[str], page: str | os.PathLike[str]) 
             _verdict(bearings, "pairwise", latency=10, mass=True),
             "Against the single-node planner (same store):",
             _paired_table(single, "single"),
+            "## Beyond imitation: RL fine-tuning",
+            _fine_tune_section(results),
             "## Feature ablation: without the belief-moment block",
             "The same training with the observation every earlier policy had (the 8 x 8 belief "
             "grid and the MMSE estimate, no `belief_moments`), in a store of its own with the "

@@ -11,11 +11,14 @@ dagger`` (:mod:`infoseek.baselines.imitation`) into ``OUT/<setting>/seed_<k>/``:
   estimate only, the observation every earlier policy had): the feature ablation;
 * ``beacon_single``: ``beacon_v0``, 4 quadrotors, imitating ``SingleNodePlanner``.
 
+**RL fine-tuning** (:data:`FINE_TUNED`, one run): PPO on the environment's entropy-reduction
+reward from the weights of ``bearings_pairwise``'s shipped seed (:func:`fine_tune_command`).
+
 **Benchmarks** (:data:`BENCHES`): one store each, written by ``infoseek bench`` with root seed 0,
 so trial ``k`` faces the same target in every store and group (paired, also across stores):
 
-* ``bench_bearings``: 40-step episodes, the pairwise-node and single-node planners and every
-  ``bearings_pairwise`` policy, 500 trials;
+* ``bench_bearings``: 40-step episodes, the pairwise-node and single-node planners, every
+  ``bearings_pairwise`` policy and the fine-tuned one, 500 trials;
 * ``bench_bearings_grid_only``: the ``bearings_pairwise_grid_only`` policies (their observation
   lacks the block, so they need a store of their own), 500 trials;
 * ``bench_bearings_random_walk``: a moving target (``target_motion="random_walk"``), pairwise
@@ -54,6 +57,7 @@ from infoseek.experiments.bench import BenchPlan, plan_bench
 
 __all__ = [
     "BENCHES",
+    "FINE_TUNED",
     "MASS_STEP",
     "SETTINGS",
     "TRAINING_SEEDS",
@@ -61,6 +65,7 @@ __all__ = [
     "Interval",
     "PairedResult",
     "Setting",
+    "fine_tune_command",
     "TrainingRun",
     "interquartile_mean",
     "paired_result",
@@ -112,9 +117,29 @@ SETTINGS: tuple[Setting, ...] = (
         "beacon_v0",
         "single",
         True,
-        ("--iterations", "5", "--episodes", "40", "--eval-episodes", "20"),
+        ("--iterations", "7", "--episodes", "40", "--eval-episodes", "20"),
     ),
 )
+
+
+#: The run directory of the PPO fine-tuning of ``bearings_pairwise``'s shipped seed.
+FINE_TUNED = "bearings_pairwise_ppo"
+
+
+def fine_tune_command(results: Path | str) -> list[str]:
+    """``infoseek train`` arguments of the RL fine-tuning: PPO on the entropy-reduction reward
+    from the weights of ``bearings_pairwise``'s shipped seed (:func:`selected_run`), 500k
+    transitions, a small step size so the first updates do not undo the imitation."""
+    results = Path(results)
+    start = selected_run([read_run(path) for path in run_directories(results, "bearings_pairwise")])
+    return [
+        "train", "--algo", "ppo", "--env", "bearings_v0", "--agents", "4",
+        "--init", str(start.path / "model.zip"), "--env-kwarg", "belief_moments=true",
+        "--timesteps", "500000", "--n-envs", "16", "--hyper", "n_steps=60",
+        "--hyper", "batch_size=480", "--hyper", "learning_rate=0.0001",
+        "--eval-freq", "100000", "--eval-episodes", "20", "--checkpoint-freq", "0",
+        "--out", str(results / FINE_TUNED),
+    ]  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -129,6 +154,7 @@ class BenchSpec:
         setting: The setting whose policies are benchmarked.
         trials: Trials per group.
         steps: Steps per trial.
+        runs: Further run directories (under the study's) whose models are benchmarked.
     """
 
     name: str
@@ -138,10 +164,12 @@ class BenchSpec:
     setting: str
     trials: int
     steps: int = 40
+    runs: tuple[str, ...] = ()
 
     def plan(self, results: Path) -> BenchPlan:
-        """The bench plan into ``results / name``; the setting's models must exist."""
-        policies = [str(path / "model.zip") for path in run_directories(results, self.setting)]
+        """The bench plan into ``results / name``; the models must exist."""
+        directories = [*run_directories(results, self.setting), *(results / r for r in self.runs)]
+        policies = [str(path / "model.zip") for path in directories]
         return plan_bench(
             self.env,
             dict(self.env_kwargs),
@@ -163,6 +191,7 @@ BENCHES: tuple[BenchSpec, ...] = (
         ("pairwise", "single"),
         "bearings_pairwise",
         500,
+        runs=(FINE_TUNED,),
     ),
     BenchSpec(
         "bench_bearings_grid_only", "bearings_v0", {}, (), "bearings_pairwise_grid_only", 500
