@@ -25,7 +25,7 @@ BENCH_STORE = "bench_20_steps"
 _SHIPPED = "policy:shipped/ppo_bearings_v0_4agents"
 
 _INTRO = (
-    "The PPO policy shipped as `infoseek.baselines.shipped_model(\"ppo_bearings_v0_4agents\")` "
+    'The PPO policy shipped as `infoseek.baselines.shipped_model("ppo_bearings_v0_4agents")` '
     "(the default shipped model is now the imitation policy of the "
     "[learned-policy page](learned.md)), files in "
     "`baselines/models/ppo_bearings_v0_4agents/` (`model.zip`, `config.json`, the training "
