@@ -32,7 +32,6 @@ iteration while the run lasts (the workers load it to drive the next one).
 from __future__ import annotations
 
 import csv
-import json
 import shutil
 import time
 from collections.abc import Callable, Mapping
@@ -54,14 +53,19 @@ from infoseek.baselines.expert_rollouts import (
     rollout_pool,
     run_rollouts,
 )
-from infoseek.baselines.policy import CONFIG_FILE, MODEL_FILE, TrainedPolicy
-from infoseek.baselines.training import FEATURES, TrainingConfig, build_model
+from infoseek.baselines.policy import MODEL_FILE, TrainedPolicy
+from infoseek.baselines.training import (
+    CURVE_FILE,
+    FEATURES,
+    TrainingConfig,
+    build_model,
+    write_run_config,
+)
 from infoseek.baselines.vec_env import make_training_vec_env
 from infoseek.envs import make, registry
 
 __all__ = ["IMITATION_CURVE_COLUMNS", "ImitationConfig", "ImitationResult", "train_imitation"]
 
-CURVE_FILE = "eval.csv"
 ITERATION_DIR = "iterations"
 #: Columns of ``eval.csv``.
 IMITATION_CURVE_COLUMNS = (
@@ -282,22 +286,6 @@ def _write_curve_row(path: Path, row: Mapping[str, float]) -> None:
         writer.writerow({k: row[k] for k in IMITATION_CURVE_COLUMNS})
 
 
-def _write_config(out: Path, config: ImitationConfig, extra: Mapping[str, Any]) -> Path:
-    data = config.training_config().to_json()
-    data.update(
-        trainer="dagger",
-        imitation={**asdict(config), "net_arch": list(config.net_arch)},
-        model_file=MODEL_FILE,
-        trained_timesteps=0,
-        **extra,
-    )
-    path = out / CONFIG_FILE
-    tmp = path.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
-    tmp.replace(path)
-    return path
-
-
 def train_imitation(
     config: ImitationConfig,
     out: str | Path,
@@ -364,11 +352,13 @@ def train_imitation(
     shutil.rmtree(out / ITERATION_DIR)
     wall = time.perf_counter() - start
     extra = {
+        "trainer": "dagger",
+        "imitation": {**asdict(config), "net_arch": list(config.net_arch)},
         "labelled_states": int(data.observations.shape[0]),
         "wall_seconds": wall,
         "expert_evaluation": expert_evaluation,
     }
-    config_path = _write_config(out, config, extra)
+    config_path = write_run_config(out, config.training_config(), 0, extra)
     return ImitationResult(
         model_path=out / MODEL_FILE,
         config_path=config_path,

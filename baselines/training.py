@@ -83,6 +83,7 @@ __all__ = [
     "check_initial_model",
     "find_resume_point",
     "train",
+    "write_run_config",
 ]
 
 CURVE_FILE = "eval.csv"
@@ -348,10 +349,18 @@ def _resumed_config(out: Path, config: TrainingConfig) -> TrainingConfig:
     return dataclasses.replace(config, hyperparameters=saved)
 
 
-def _write_config(out: Path, config: TrainingConfig, trained_timesteps: int | None) -> Path:
+def write_run_config(
+    out: Path,
+    config: TrainingConfig,
+    trained_timesteps: int | None,
+    extra: Mapping[str, Any] | None = None,
+) -> Path:
+    """Write ``out/config.json`` atomically: ``config.to_json()``, the model's
+    ``trained_timesteps`` and file name, and any ``extra`` entries (keys sorted)."""
     data = config.to_json()
     data["trained_timesteps"] = trained_timesteps
     data["model_file"] = MODEL_FILE
+    data.update(extra or {})
     path = out / CONFIG_FILE
     tmp = path.with_suffix(".json.tmp")
     tmp.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
@@ -501,7 +510,7 @@ def train(
                 model.load_replay_buffer(str(buffer))
         truncate_curve(curve_path, start_timesteps)
     out.mkdir(parents=True, exist_ok=True)  # the model is built: now the run directory is written
-    _write_config(out, config, previous.get("trained_timesteps"))
+    write_run_config(out, config, previous.get("trained_timesteps"))
 
     n_slots = vec_env.num_envs
     callbacks: list[Any] = [TqdmProgressCallback(config.timesteps, disable=not progress)]
@@ -533,7 +542,7 @@ def train(
         model.save_replay_buffer(
             str(out / CHECKPOINT_DIR / f"model_replay_buffer_{model.num_timesteps}_steps.pkl")
         )
-    config_path = _write_config(out, config, int(model.num_timesteps))
+    config_path = write_run_config(out, config, int(model.num_timesteps))
     vec_env.close()
     if evaluation.env is not None:
         evaluation.env.close()

@@ -229,40 +229,17 @@ def _first_step_times(planner_name: str, env_id: str, n_agents: int, repeats: in
     return 1e3 * np.asarray(times[1:])
 
 
-def _new_user_pairwise_times(repeats: int) -> np.ndarray:
-    """``PairwiseNodePlanner.act`` at steps 2 to 11 of seeded episodes, as the README's example
-    builds env and planner (ten calls per episode, ``ceil(repeats / 10)`` episodes)."""
-    from infoseek.envs import make
-    from infoseek.planners import PairwiseNodePlanner
-
-    env = make("bearings_v0", n_agents=4, belief_in_infos=True)
+def _act_times_steps_2_11(env: Any, policy_for: Callable[[int], Any], repeats: int) -> np.ndarray:
+    """``act`` times (ms) at steps 2 to 11 of seeded episodes of ``env``, ten calls per
+    episode, ``ceil(repeats / 10)`` episodes after a warm-up one; ``policy_for(seed)`` gives
+    the policy of the episode seeded ``seed``. Closes ``env``."""
     times: list[float] = []
     for episode in range(-(-repeats // 10) + 1):  # episode 0 is the warm-up
         observations, infos = env.reset(seed=200 + episode)
-        planner = PairwiseNodePlanner.from_env(env, seed=200 + episode)
+        policy = policy_for(200 + episode)
         for step in range(1, 12):
             if not env.agents:
                 break
-            start = time.perf_counter()
-            actions = planner.act(observations, infos)
-            if step >= 2 and episode > 0:
-                times.append(time.perf_counter() - start)
-            observations, _, _, _, infos = env.step(actions)
-    env.close()
-    return 1e3 * np.asarray(times)
-
-
-def _policy_act_times(env_id: str, model: str, repeats: int) -> np.ndarray:
-    """A shipped policy's ``act`` at steps 2 to 11 of seeded episodes (ten calls each)."""
-    from infoseek.baselines import load_policy, shipped_model
-    from infoseek.envs import make
-
-    env = make(env_id, n_agents=4, belief_moments=True)
-    policy = load_policy(shipped_model(model), env)
-    times: list[float] = []
-    for episode in range(-(-repeats // 10) + 1):  # episode 0 is the warm-up
-        observations, infos = env.reset(seed=200 + episode)
-        for step in range(1, 12):
             start = time.perf_counter()
             actions = policy.act(observations, infos)
             if step >= 2 and episode > 0:
@@ -270,6 +247,28 @@ def _policy_act_times(env_id: str, model: str, repeats: int) -> np.ndarray:
             observations, _, _, _, infos = env.step(actions)
     env.close()
     return 1e3 * np.asarray(times)
+
+
+def _new_user_pairwise_times(repeats: int) -> np.ndarray:
+    """``PairwiseNodePlanner.act`` at steps 2 to 11 of seeded episodes, as the README's example
+    builds env and planner (a planner per episode, seeded with the episode)."""
+    from infoseek.envs import make
+    from infoseek.planners import PairwiseNodePlanner
+
+    env = make("bearings_v0", n_agents=4, belief_in_infos=True)
+    return _act_times_steps_2_11(
+        env, lambda seed: PairwiseNodePlanner.from_env(env, seed=seed), repeats
+    )
+
+
+def _policy_act_times(env_id: str, model: str, repeats: int) -> np.ndarray:
+    """A shipped policy's ``act`` at steps 2 to 11 of seeded episodes (one policy for all)."""
+    from infoseek.baselines import load_policy, shipped_model
+    from infoseek.envs import make
+
+    env = make(env_id, n_agents=4, belief_moments=True)
+    policy = load_policy(shipped_model(model), env)
+    return _act_times_steps_2_11(env, lambda seed: policy, repeats)
 
 
 def coordinated_decision(rng: np.random.Generator) -> Callable[[], Any]:

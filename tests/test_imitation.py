@@ -54,20 +54,30 @@ def test_a_run_writes_a_loadable_ppo_model_and_its_curve(imitation_run: Path) ->
     assert all(env.action_space(a).contains(actions[a]) for a in env.agents)
 
 
+def _replayed_labels(seed: int, model: str | None) -> tuple[np.ndarray, np.ndarray]:
+    """Four steps of seed ``seed`` replayed by hand: every agent's observation and the
+    pairwise planner's action for it, the vehicles driven by the planner (``model`` None) or
+    by the policy ``model``."""
+    env = make("bearings_v0", n_agents=2, belief_in_infos=True, **SMALL)
+    driver = None if model is None else load_policy(model, env)
+    expert = PairwiseNodePlanner.from_env(env, seed=seed)
+    observations, infos = env.reset(seed=seed)
+    rows, labels = [], []
+    for _ in range(4):
+        wanted = expert.act(observations, infos)
+        rows += [observations[a] for a in env.agents]
+        labels += [wanted[a] for a in env.agents]
+        actions = wanted if driver is None else driver.act(observations, infos)
+        observations, _, _, _, infos = env.step(actions)
+    return np.stack(rows), np.stack(labels).astype(np.float32)
+
+
 def test_cloning_labels_are_the_experts_decisions_on_its_own_episode() -> None:
     task = RolloutTask("bearings_v0", {"n_agents": 2, **SMALL}, "pairwise", None, 1.0, (5,), 4)
     batch = run_rollouts(task, num_cpus=0)
-    env = make("bearings_v0", n_agents=2, belief_in_infos=True, **SMALL)
-    expert = PairwiseNodePlanner.from_env(env, seed=5)
-    observations, infos = env.reset(seed=5)
-    rows, labels = [], []
-    for _ in range(4):
-        actions = expert.act(observations, infos)
-        rows += [observations[a] for a in env.agents]
-        labels += [actions[a] for a in env.agents]
-        observations, _, _, _, infos = env.step(actions)
-    np.testing.assert_array_equal(batch.observations, np.stack(rows))
-    np.testing.assert_array_equal(batch.actions, np.stack(labels).astype(np.float32))
+    rows, labels = _replayed_labels(5, None)
+    np.testing.assert_array_equal(batch.observations, rows)
+    np.testing.assert_array_equal(batch.actions, labels)
     assert (batch.steps, batch.learner_steps) == (4, 0)
 
 
@@ -77,18 +87,9 @@ def test_dagger_with_beta_zero_follows_the_learner_and_labels_with_the_expert(
     model = str(imitation_run / "model.zip")
     task = RolloutTask("bearings_v0", {"n_agents": 2, **SMALL}, "pairwise", model, 0.0, (9,), 4)
     batch = run_rollouts(task, num_cpus=0)
-    env = make("bearings_v0", n_agents=2, belief_in_infos=True, **SMALL)
-    learner = load_policy(model, env)
-    expert = PairwiseNodePlanner.from_env(env, seed=9)
-    observations, infos = env.reset(seed=9)
-    rows, labels = [], []
-    for _ in range(4):
-        wanted = expert.act(observations, infos)
-        rows += [observations[a] for a in env.agents]
-        labels += [wanted[a] for a in env.agents]
-        observations, _, _, _, infos = env.step(learner.act(observations, infos))
-    np.testing.assert_array_equal(batch.observations, np.stack(rows))
-    np.testing.assert_array_equal(batch.actions, np.stack(labels).astype(np.float32))
+    rows, labels = _replayed_labels(9, model)
+    np.testing.assert_array_equal(batch.observations, rows)
+    np.testing.assert_array_equal(batch.actions, labels)
     assert batch.learner_steps == 4
 
 

@@ -88,6 +88,17 @@ def _gain(values: tuple[float, float, float], digits: int) -> str:
     return f"{mean:+.{digits}f} +- {stderr:.{digits}f} (p {format_p_value(p)})"
 
 
+def _comparison_cells(result: PairedResult) -> list[str]:
+    """Trials, time to localise, its paired gain, mass at step 20, its paired gain."""
+    return [
+        str(result.trials),
+        f"{result.policy_ttl:.2f} vs {result.planner_ttl:.2f}",
+        _gain(result.ttl_gain, 2),
+        f"{result.policy_mass:.3f} vs {result.planner_mass:.3f}",
+        _gain(result.mass_gain, 3),
+    ]
+
+
 def _comparisons(
     results: Path, bench: str, planner: str, setting: str, planner_bench: str | None = None
 ) -> list[tuple[TrainingRun, PairedResult]]:
@@ -116,11 +127,7 @@ def _paired_table(pairs: Sequence[tuple[TrainingRun, PairedResult]], planner: st
     rows = [
         [
             f"{run.seed}{' (shipped)' if run is chosen else ''}",
-            str(result.trials),
-            f"{result.policy_ttl:.2f} vs {result.planner_ttl:.2f}",
-            _gain(result.ttl_gain, 2),
-            f"{result.policy_mass:.3f} vs {result.planner_mass:.3f}",
-            _gain(result.mass_gain, 3),
+            *_comparison_cells(result),
             f"{result.policy_ms:.2f} vs {result.planner_ms:.2f} ms",
         ]
         for run, result in pairs
@@ -196,16 +203,7 @@ def _fine_tune_section(results: Path) -> str:
         (f"its start (seed {start.seed})", portable_label(start.path / "model.zip", store)),
     ):
         result = paired_result(trials, tuned, trials, label, steps)
-        rows.append(
-            [
-                name,
-                str(result.trials),
-                f"{result.policy_ttl:.2f} vs {result.planner_ttl:.2f}",
-                _gain(result.ttl_gain, 2),
-                f"{result.policy_mass:.3f} vs {result.planner_mass:.3f}",
-                _gain(result.mass_gain, 3),
-            ]
-        )
+        rows.append([name, *_comparison_cells(result)])
     header = [
         "fine-tuned policy against",
         "paired trials",
