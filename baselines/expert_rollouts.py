@@ -30,6 +30,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from infoseek.planners.registry import INFORMATION_PLANNERS, PLANNER_CLASSES
+
 __all__ = [
     "EXPERTS",
     "LabelledBatch",
@@ -39,13 +41,8 @@ __all__ = [
     "run_rollouts",
 ]
 
-#: Expert name -> planner class name in :mod:`infoseek.planners`.
-EXPERTS: dict[str, str] = {
-    "pairwise": "PairwiseNodePlanner",
-    "single": "SingleNodePlanner",
-    "horizon": "RecedingHorizonPlanner",
-    "joint": "JointPlanner",
-}
+#: Expert name -> planner class name in :mod:`infoseek.planners`: the information planners.
+EXPERTS: dict[str, str] = {name: PLANNER_CLASSES[name] for name in INFORMATION_PLANNERS}
 
 
 def build_expert(name: str, env: Any, seed: int) -> Any:

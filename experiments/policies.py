@@ -28,6 +28,7 @@ from infoseek.experiments.policy_labels import (
     policy_file,
     portable_label,
 )
+from infoseek.planners.registry import PLANNER_CLASSES
 
 __all__ = [
     "PLANNER_CLASSES",
@@ -39,15 +40,6 @@ __all__ = [
     "trained_policy_loader",
 ]
 
-#: Command-line name -> class name in :mod:`infoseek.planners`.
-PLANNER_CLASSES: dict[str, str] = {
-    "pairwise": "PairwiseNodePlanner",
-    "single": "SingleNodePlanner",
-    "joint": "JointPlanner",
-    "horizon": "RecedingHorizonPlanner",
-    "random": "RandomPolicy",
-    "lawnmower": "LawnmowerPolicy",
-}
 PLANNER_NAMES: list[str] = list(PLANNER_CLASSES)
 
 
