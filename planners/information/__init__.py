@@ -200,9 +200,9 @@ def _warn_if_bounded(estimator: MIEstimator, unresolved: FloatArray, stacklevel:
         warnings.warn(
             f"MI estimator {estimator.name!r} did not resolve the likelihood of particles "
             f"holding up to {worst:.3g} of the belief's weight (kernels sharper than its "
-            "max_shape option): the value is a lower bound of the exact MI. Raise max_shape, "
-            "or use method='monte_carlo' with an rng for an unbiased estimate with its "
-            "standard error.",
+            "max_shape option): the value is a lower bound of the exact MI. Pass "
+            "rng=numpy.random.Generator to resolve them (a Monte Carlo remainder with its "
+            "standard error), or raise max_shape.",
             MILowerBoundWarning,
             stacklevel=stacklevel + 1,
         )

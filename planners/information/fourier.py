@@ -59,6 +59,7 @@ from infoseek.planners.information.fourier_cache import FourierCache
 from infoseek.planners.information.fourier_spectra import kernel_spectra
 from infoseek.planners.information.grid_entropy import entropy_sums, pair_grids
 from infoseek.planners.information.quadrature import check_points
+from infoseek.planners.information.sharp_remainder import sharp_mi
 
 __all__ = ["KernelTable", "ShiftKernelEstimator"]
 
@@ -139,6 +140,16 @@ class KernelTable:
         shift = np.exp(1j * np.pi * np.arange(spectrum.shape[1]))  # e^{-i w_k (-L/2)}
         return spectrum * shift, entropies
 
+    def entropy_at(self, shapes: FloatArray) -> FloatArray:
+        """``h(s)`` at arbitrary shapes (clamped to ``[0, s_max]``), linear in ``u`` between
+        nodes."""
+        if self.shapes.size == 1:
+            return np.full(np.shape(shapes), self.entropies[0])
+        u = self.shape_coordinates(shapes)
+        node = np.minimum(u.astype(np.intp), self.shapes.size - 2)
+        h = self.entropies
+        return np.asarray(h[node] + (u - node) * (h[node + 1] - h[node]), dtype=np.float64)
+
     def shape_coordinates(self, shapes: FloatArray) -> FloatArray:
         """``u = log1p(clip(s, 0, s_max)) / spacing``: the shape in node units."""
         u: FloatArray = np.log1p(np.clip(shapes, 0.0, self.max_shape)) * (1.0 / self.node_spacing)
@@ -173,17 +184,31 @@ class ShiftKernelEstimator(MIEstimator):
         sensor: A sensor with ``kernel_parameters`` and ``kernel_log_density`` and a periodic
             observation.
         n_points: Grid nodes ``Q`` (``None``: ``next_fast_len(2K + 2)``, at least 16).
-        max_shape: Largest shape resolved (``None``: the sensor's ``max_kernel_shape`` if
-            finite, else 64).
+        max_shape: Largest shape the table resolves (``None``: the sensor's
+            ``max_kernel_shape`` if finite, else 64).
+        n_samples: Monte Carlo draws per pose set for kernels sharper than the table
+            (:mod:`~infoseek.planners.information.sharp_remainder`), an integer ``>= 16``.
+        rng: Generator of those draws. ``None``: shapes beyond ``max_shape`` are capped there
+            and the value is a lower bound, reported by :meth:`unresolved` (the public
+            functions then mark and warn). Never drawn from for a sensor whose shapes stay
+            within the table (bounded sensors give the same values with or without it).
+
+    Raises:
+        ValueError: A bad ``max_shape``, ``n_samples`` or ``rng``.
     """
 
     name: ClassVar[str] = "fourier"
     required_methods: ClassVar[tuple[str, ...]] = ("kernel_parameters", "kernel_log_density")
     periodic_only: ClassVar[bool] = True
-    options: ClassVar[tuple[str, ...]] = ("n_points", "max_shape")
+    options: ClassVar[tuple[str, ...]] = ("n_points", "max_shape", "n_samples", "rng")
 
     def __init__(
-        self, sensor: Sensor, n_points: int | None = None, max_shape: float | None = None
+        self,
+        sensor: Sensor,
+        n_points: int | None = None,
+        max_shape: float | None = None,
+        n_samples: int = 4096,
+        rng: np.random.Generator | None = None,
     ) -> None:
         super().__init__(sensor)
         if max_shape is None:
@@ -199,6 +224,14 @@ class ShiftKernelEstimator(MIEstimator):
         self.harmonics = min(self.table.harmonics, (points - 1) // 2)
         self.log_spacing = math.log(self.table.period / points)
         self._frequencies = 2.0 * np.pi * np.arange(self.harmonics + 1) / self.table.period
+        if rng is not None and not isinstance(rng, np.random.Generator):
+            raise ValueError(f"rng must be a numpy.random.Generator or None, got {type(rng)}")
+        if isinstance(n_samples, bool) or int(n_samples) != n_samples or n_samples < 16:
+            raise ValueError(f"n_samples must be an integer >= 16, got {n_samples!r}")
+        self.n_samples = int(n_samples)
+        self.rng = rng
+        #: Whether sharper shapes than the table's can occur (the sensor is not bounded by it).
+        self.capped = float(getattr(sensor, "max_kernel_shape", math.inf)) > max_shape
 
     # -- per-pose work
     def _spectra(self, poses: FloatArray, belief: BeliefMI) -> tuple[np.ndarray, FloatArray]:
@@ -260,19 +293,52 @@ class ShiftKernelEstimator(MIEstimator):
         and ``(P,)`` conditional entropies; cached per pose."""
         return self.cache(belief).channels(poses)
 
-    def unresolved(self, belief: BeliefMI, poses: FloatArray) -> NDArray[np.bool_]:
-        """``(P, N)``: whether particle ``n``'s kernel shape at pose ``p`` exceeds the table's
-        ``s_max`` (its SNR is capped there, so the value is a lower bound: module docstring).
-        Nothing for a sensor whose shapes never exceed ``s_max``."""
-        if float(self.sensor.max_kernel_shape) <= self.table.max_shape:  # type: ignore[attr-defined]
+    def sharp(self, belief: BeliefMI, poses: FloatArray) -> NDArray[np.bool_]:
+        """``(P, N)``: whether particle ``n`` has positive weight and a kernel shape at pose
+        ``p`` beyond the table's ``s_max``. Nothing for a sensor whose shapes never exceed it."""
+        if not self.capped:
             return np.zeros((poses.shape[0], belief.n_particles), dtype=bool)
         _, shape = self.sensor.kernel_parameters(poses, belief.particles)  # type: ignore[attr-defined]
-        return np.asarray(shape) > self.table.max_shape
+        return (np.asarray(shape) > self.table.max_shape) & (belief.weights > 0)
+
+    def unresolved(self, belief: BeliefMI, poses: FloatArray) -> NDArray[np.bool_]:
+        """``(P, N)``: the :meth:`sharp` particles when the estimator has no ``rng`` (their SNR
+        is capped at ``s_max``, so the value is a lower bound: module docstring); nothing when
+        it has one (the sharp kernels are resolved by the Monte Carlo remainder)."""
+        if self.rng is not None:
+            return np.zeros((poses.shape[0], belief.n_particles), dtype=bool)
+        return self.sharp(belief, poses)
+
+    def _sharp_sets(self, belief: BeliefMI, pose_sets: FloatArray) -> NDArray[np.intp]:
+        """Indices of the ``(C, k, pose_dim)`` sets the Monte Carlo remainder resolves (only
+        with an ``rng``)."""
+        if self.rng is None or not self.capped:
+            return np.empty(0, dtype=np.intp)
+        n_sets, k, pose_dim = pose_sets.shape
+        flags = self.sharp(belief, pose_sets.reshape(n_sets * k, pose_dim))
+        return np.flatnonzero(flags.reshape(n_sets, -1).any(axis=1))
+
+    def _resolve_sharp(
+        self, belief: BeliefMI, pose_sets: FloatArray, grid: JointEntropies
+    ) -> JointEntropies:
+        """``grid`` with the sets holding sharp kernels replaced by the exact grid part plus
+        Monte Carlo remainder (:func:`~infoseek.planners.information.sharp_remainder.sharp_mi`)."""
+        sets = self._sharp_sets(belief, pose_sets)
+        if sets.size == 0 or self.rng is None:
+            return grid
+        values, stderrs = grid.values.copy(), grid.stderrs.copy()
+        entropy_z, conditional = grid.entropy.copy(), grid.conditional.copy()
+        for c in sets:
+            values[c], stderrs[c], conditional[c] = sharp_mi(
+                self, belief, pose_sets[c], self.rng, self.n_samples
+            )
+            entropy_z[c] = values[c] + conditional[c]
+        return JointEntropies(values, stderrs, entropy_z, conditional)
 
     # -- estimates
     def singles(self, belief: BeliefMI, poses: FloatArray) -> FloatArray:
-        entropy_z, conditional = self._single_entropies(belief, poses)
-        return entropy_z - conditional
+        grid = JointEntropies.from_entropies(*self._single_entropies(belief, poses))
+        return self._resolve_sharp(belief, poses[:, None], grid).values
 
     def _single_entropies(
         self, belief: BeliefMI, poses: FloatArray
@@ -298,9 +364,21 @@ class ShiftKernelEstimator(MIEstimator):
         channels_b, conditional_b = self.channels(belief, poses_b)
         joint = _pair_joint_entropies(channels_a, channels_b, belief.weights)
         joint += 2.0 * self.log_spacing
-        return joint - conditional_a[:, None] - conditional_b[None, :]
+        values = joint - conditional_a[:, None] - conditional_b[None, :]
+        if self.rng is None or not self.capped:
+            return values
+        sharp_a = np.asarray(self.sharp(belief, poses_a).any(axis=1))
+        sharp_b = np.asarray(self.sharp(belief, poses_b).any(axis=1))
+        for a, b in zip(*np.nonzero(sharp_a[:, None] | sharp_b[None, :]), strict=True):
+            pair = np.stack([poses_a[a], poses_b[b]])
+            values[a, b] = sharp_mi(self, belief, pair, self.rng, self.n_samples)[0]
+        return values
 
     def joint(self, belief: BeliefMI, pose_sets: FloatArray) -> JointEntropies:
+        return self._resolve_sharp(belief, pose_sets, self._grid_joint(belief, pose_sets))
+
+    def _grid_joint(self, belief: BeliefMI, pose_sets: FloatArray) -> JointEntropies:
+        """:meth:`joint` on the grid alone (shapes capped at ``s_max``)."""
         n_sets, k = pose_sets.shape[:2]
         if k == 1:
             return JointEntropies.from_entropies(*self._single_entropies(belief, pose_sets[:, 0]))
