@@ -225,7 +225,7 @@ EXACT_POSES = {
     "near": np.array([[5.0, 5.0], [10.0, 4.0]]),
     "far": np.array([[20.0, 30.0], [35.0, 5.0]]),
 }
-EXACT_FAR_CONCENTRATED = np.array([[12.0, 3.0], [3.0, 10.0]])  # ~5 units: SNR up to ~20
+EXACT_FAR_CONCENTRATED = np.array([[12.0, 3.0], [3.0, 10.0]])  # ~5-6 units: SNR below ~30
 
 
 def _exact_belief(kind: str) -> tuple[np.ndarray, np.ndarray]:
@@ -238,7 +238,7 @@ def _exact_belief(kind: str) -> tuple[np.ndarray, np.ndarray]:
         xy = np.array([[8.0, 7.0], [30.0, 26.0]])[rng.integers(0, 2, n)]
         xy = xy + rng.normal(0.0, [1.5, 2.0], (n, 2))
     else:
-        xy = np.array([8.0, 6.0]) + rng.normal(0.0, 0.5, (n, 2))
+        xy = np.array([6.0, 5.5]) + rng.normal(0.0, 0.5, (n, 2))  # 0.2-2.5 units from (5, 5)
     weights = rng.gamma(2.0, size=n)
     return np.column_stack([xy, rng.uniform(0.0, 2.0 * np.pi, n)]), weights / weights.sum()
 

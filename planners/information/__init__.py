@@ -28,7 +28,15 @@ name               serves                                           method
 =================  ===============================================  ============================
 
 ``method="auto"`` takes the first of ``fft``, ``fourier``, ``quadrature`` that serves the
-sensor and ``k``, and ``monte_carlo`` beyond ``k = 3`` (which then needs ``rng``). Every grid
+sensor and ``k``, and ``monte_carlo`` beyond ``k = 3`` (which then needs ``rng``). For a sensor
+whose kernels can be sharper than any practical grid (the exact ``BeaconSensor``, SNR
+unbounded) ``fourier`` resolves them when given ``rng``: the grid over the particles it
+resolves plus a Monte Carlo remainder over the sharp ones, unbiased, with its standard error
+(:mod:`~infoseek.planners.information.sharp_remainder`). Without ``rng`` it returns the MI of
+the receiver with its SNR capped at ``max_shape`` (64), a lower bound, marked
+(``MIEstimate.lower_bound``, ``unresolved_mass``) and warned about (``MILowerBoundWarning``),
+never silently. Sensors bounded by the grid (the filters' floored beacon, bearings) give the
+same values with or without ``rng`` and never draw from it. Every grid
 estimator uses one grid for ``k = 1`` and ``k = 2``, so the terms of a utility (eq. 20, 22)
 share one resolution.
 
@@ -235,17 +243,21 @@ def mutual_information(
             estimator's own).
         edges: ``(Q + 1,)`` increasing bin edges for ``"quantised"`` (overrides ``n_points``).
         n_samples: Monte Carlo sample size (default 4096).
-        max_shape: Largest kernel shape ``"fourier"`` resolves (default: the sensor's bound,
-            or 64 for an unbounded one such as the exact beacon receiver); a particle beyond
-            it makes the value a lower bound, which is then marked and warned about.
-        rng: Generator for ``"monte_carlo"`` (required there, unused otherwise).
+        max_shape: Largest kernel shape ``"fourier"``'s grid resolves (default: the sensor's
+            bound, or 64 for an unbounded one such as the exact beacon receiver); particles
+            beyond it go to the Monte Carlo remainder when ``rng`` is given, else make the
+            value a lower bound, which is then marked and warned about.
+        rng: Generator for ``"monte_carlo"`` (required there) and for ``"fourier"``'s
+            remainder beyond ``max_shape`` (without it: the marked lower bound); never drawn
+            from where the grid resolves every particle.
 
     Returns:
         An :class:`MIEstimate` (a ``float``) with ``stderr``, ``method`` and ``lower_bound``.
 
     Warns:
         MILowerBoundWarning: The value is only a lower bound because the estimator did not
-            resolve every particle's likelihood (``unresolved_mass`` says how much weight).
+            resolve every particle's likelihood (``unresolved_mass`` says how much weight;
+            for the exact beacon: pass ``rng``).
 
     Raises:
         ValueError: On malformed inputs, an unknown method, or Monte Carlo without ``rng``.
