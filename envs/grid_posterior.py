@@ -71,7 +71,7 @@ from infoseek.envs.targets import StationaryTarget
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
 
-__all__ = ["DEFAULT_CELLS", "DEFAULT_SUBCELLS", "GridPosterior"]
+__all__ = ["DEFAULT_CELLS", "DEFAULT_SUBCELLS", "GridPosterior", "check_radius", "disk_mass"]
 
 #: Cells per axis of :meth:`GridPosterior.from_config` (0.1 units on a 40-unit domain).
 DEFAULT_CELLS = 400
@@ -237,32 +237,54 @@ class GridPosterior:
         Raises:
             ValueError: ``radius`` or ``centre`` out of range.
         """
-        if isinstance(radius, bool) or not isinstance(radius, int | float):
-            raise ValueError(f"radius must be a positive number, got {radius!r}")
-        if not (math.isfinite(radius) and radius > 0):
-            raise ValueError(f"radius must be finite and > 0, got {radius!r}")
+        radius = check_radius(radius)
         q = _point(centre, "centre")
         points = self._centres[self._active]
-        distance = np.hypot(points[:, 0] - q[0], points[:, 1] - q[1])
-        rho = 0.5 * float(np.hypot(*self.cell_sides))
-        weights = self._weights()
-        inside = float(weights[distance <= radius - rho].sum())
-        edge = np.flatnonzero((distance > radius - rho) & (distance < radius + rho))
-        if edge.size == 0:
-            return inside
-        s = self.subcells
-        steps = (np.arange(s) + 0.5) / s - 0.5
-        dx, dy = np.meshgrid(steps * self.cell_sides[0], steps * self.cell_sides[1])
-        sub_x = points[edge, 0, None] + dx.ravel()[None, :] - q[0]
-        sub_y = points[edge, 1, None] + dy.ravel()[None, :] - q[1]
-        fraction = np.mean(sub_x**2 + sub_y**2 <= radius**2, axis=1)
-        return inside + float(weights[edge] @ fraction)
+        return disk_mass(points, self._weights(), self.cell_sides, self.subcells, radius, q)
 
     def entropy(self) -> float:
         """Differential entropy (nats) of the piecewise-constant posterior density."""
         weights = self._weights()
         positive = weights > 0
         return float(-(weights[positive] @ self._log[positive]) + math.log(self.cell_area))
+
+
+def check_radius(radius: Any) -> float:
+    """``radius`` as a finite positive float, or a ``ValueError`` naming it."""
+    if isinstance(radius, bool) or not isinstance(radius, int | float):
+        raise ValueError(f"radius must be a positive number, got {radius!r}")
+    if not (math.isfinite(radius) and radius > 0):
+        raise ValueError(f"radius must be finite and > 0, got {radius!r}")
+    return float(radius)
+
+
+def disk_mass(
+    points: FloatArray,
+    weights: FloatArray,
+    cell_sides: FloatArray,
+    subcells: int,
+    radius: float,
+    centre: FloatArray,
+) -> float:
+    """Mass of the disk of ``radius`` around ``centre`` of cells of sides ``cell_sides`` with
+    centres ``points`` ``(C, 2)`` and masses ``weights`` ``(C,)``: the cells within
+    ``radius - rho`` count whole, those in the ring of half-width ``rho`` (the half-diagonal)
+    by the fraction of their ``subcells x subcells`` sub-cell midpoints inside (module
+    docstring). Arguments are the caller's, already checked."""
+    q = centre
+    distance = np.hypot(points[:, 0] - q[0], points[:, 1] - q[1])
+    rho = 0.5 * float(np.hypot(*cell_sides))
+    inside = float(weights[distance <= radius - rho].sum())
+    edge = np.flatnonzero((distance > radius - rho) & (distance < radius + rho))
+    if edge.size == 0:
+        return inside
+    s = subcells
+    steps = (np.arange(s) + 0.5) / s - 0.5
+    dx, dy = np.meshgrid(steps * cell_sides[0], steps * cell_sides[1])
+    sub_x = points[edge, 0, None] + dx.ravel()[None, :] - q[0]
+    sub_y = points[edge, 1, None] + dy.ravel()[None, :] - q[1]
+    fraction = np.mean(sub_x**2 + sub_y**2 <= radius**2, axis=1)
+    return inside + float(weights[edge] @ fraction)
 
 
 def _point(value: Any, name: str) -> FloatArray:
