@@ -10,6 +10,9 @@ Part of the command line's top layer: each study lives in :mod:`infoseek.experim
   (:mod:`~infoseek.experiments.studies.ablation`, :mod:`~infoseek.experiments.studies.decisions`);
 * ``grid_posterior``: the Fig. 1 store's episodes rerun beside an exact grid posterior
   (:mod:`~infoseek.experiments.studies.grid_posterior`);
+* ``beacon_grid``: a beacon store's episodes rerun beside an exact 3-D grid posterior
+  (:mod:`~infoseek.experiments.studies.beacon_grid`; ``--store`` and ``--group`` choose the
+  store and its groups, default the committed beacon store's ``pairwise/4``);
 * ``horizon``: the receding-horizon planner and the clairvoyant reference added to a Fig. 1
   store (:mod:`~infoseek.experiments.studies.horizon`; the Fig. 1 groups are run first, or
   resumed, since the study compares with them);
@@ -32,7 +35,14 @@ from infoseek.experiments.commands import add_execution_arguments, execution, ru
 from infoseek.experiments.pages.fig2_record import write_fig2_record
 from infoseek.experiments.pages.registry import MIN_PAGE_TRIALS, write_page
 from infoseek.experiments.plot import plot_fig1_from_store
-from infoseek.experiments.studies import ablation, decisions, fig2, grid_posterior, learned
+from infoseek.experiments.studies import (
+    ablation,
+    beacon_grid,
+    decisions,
+    fig2,
+    grid_posterior,
+    learned,
+)
 from infoseek.experiments.studies.beacon import beacon_plan
 from infoseek.experiments.studies.fig1 import fig1_plan
 from infoseek.experiments.studies.horizon import horizon_plans
@@ -40,7 +50,16 @@ from infoseek.experiments.studies.horizon import horizon_plans
 __all__ = ["STUDIES", "add_reproduce_arguments", "fig1_plan", "run_reproduce_command"]
 
 #: The studies ``infoseek reproduce`` runs.
-STUDIES = ("fig1", "fig2", "beacon", "ablation", "grid_posterior", "horizon", "learned")
+STUDIES = (
+    "fig1",
+    "fig2",
+    "beacon",
+    "ablation",
+    "grid_posterior",
+    "beacon_grid",
+    "horizon",
+    "learned",
+)
 
 
 def add_reproduce_arguments(parser: argparse.ArgumentParser) -> None:
@@ -49,7 +68,8 @@ def add_reproduce_arguments(parser: argparse.ArgumentParser) -> None:
         "figure",
         choices=STUDIES,
         help="which study: the paper's fig1 or fig2, the beacon Monte Carlo study, the Claim A "
-        "ablation, the filter against an exact grid posterior, the receding-horizon planner "
+        "ablation, the filter against an exact grid posterior (bearings: grid_posterior; "
+        "beacon: beacon_grid), the receding-horizon planner "
         "and the clairvoyant reference added to a Fig. 1 store, or policies that imitate the "
         "planners (learned)",
     )
@@ -72,6 +92,28 @@ def add_reproduce_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--page", type=Path, default=None, help="the results page to write (default OUT/page.md)"
+    )
+    parser.add_argument(
+        "--store",
+        type=Path,
+        default=None,
+        help="beacon_grid only: the store whose episodes are rerun (default "
+        f"{beacon_grid.BEACON_STORE})",
+    )
+    parser.add_argument(
+        "--group",
+        action="append",
+        default=None,
+        metavar="PLANNER/N",
+        help="beacon_grid only: a group of the store to rerun, repeatable (default "
+        + ", ".join(f"{p}/{n}" for p, n in beacon_grid.DEFAULT_GROUPS)
+        + ")",
+    )
+    parser.add_argument(
+        "--halved-cells",
+        action="store_true",
+        help="beacon_grid only: the resolution check, every grid cell halved (8x the cells), "
+        "into OUT/beacon_grid_halved.json",
     )
     add_execution_arguments(parser)
 
@@ -102,6 +144,11 @@ def _run_study(out: Path, args: argparse.Namespace) -> int:
     if args.figure == "fig2":
         return _fig2(out, args)
     _, workers = execution(args)
+    beacon_options = (args.store, args.group, args.halved_cells or None)
+    if args.figure != "beacon_grid" and any(option is not None for option in beacon_options):
+        raise ValueError("reproduce: --store/--group/--halved-cells only apply to beacon_grid")
+    if args.figure == "beacon_grid":
+        return _beacon_grid(out, args, workers)
     if args.figure == "grid_posterior":  # the Fig. 1 store's episodes beside an exact posterior
         if args.steps is not None or args.particles is not None or args.seed != 0:
             raise ValueError("reproduce grid_posterior: --steps/--particles/--seed are the store's")
@@ -128,6 +175,36 @@ def _run_study(out: Path, args: argparse.Namespace) -> int:
         return code
     for path in plot_fig1_from_store(store, out / args.figure):
         print(f"wrote {path}")
+    return 0
+
+
+def _beacon_grid(out: Path, args: argparse.Namespace, workers: int) -> int:
+    """``infoseek reproduce beacon_grid``: a beacon store's episodes beside an exact 3-D grid
+    posterior, into ``OUT/beacon_grid.json``."""
+    if args.steps is not None or args.particles is not None or args.seed != 0:
+        raise ValueError("reproduce beacon_grid: --steps/--particles/--seed are the store's")
+    store = args.store if args.store is not None else beacon_grid.BEACON_STORE
+    texts = list(args.group or [])
+    groups = [beacon_grid.parse_group(text) for text in texts] or list(beacon_grid.DEFAULT_GROUPS)
+    command = "infoseek reproduce beacon_grid"
+    if args.trials is not None:
+        command += f" --trials {args.trials}"
+    if args.store is not None:
+        command += f" --store {Path(args.store).as_posix()}"
+    command += "".join(f" --group {text}" for text in texts)
+    if args.halved_cells:
+        command += " --halved-cells"
+    command += f" --workers {workers} --out {out}"
+    path = beacon_grid.reproduce_beacon_grid(
+        out,
+        trials=args.trials,
+        workers=workers,
+        store=store,
+        groups=groups,
+        halved=args.halved_cells,
+        command=command,
+    )
+    print(f"wrote {path}")
     return 0
 
 

@@ -55,9 +55,10 @@ _CARRIES = (
     "holds more mass than the estimate allows, or localises before the estimate's time to "
     "localise: the assumption fails for the exact posterior too, not only for the filter, so "
     "what the estimate leaves to gain is an estimate, not a limit.\n"
-    "* **Beacon numbers** ([beacon](beacon.md), [Fig. 2](fig2.md)) are not covered: the "
-    "beacon's target has a third coordinate (the heading) and its filter a noise floor; this "
-    "2-D grid does not apply."
+    "* **Beacon numbers** ([beacon](beacon.md), [Fig. 2](fig2.md)) are not covered here: the "
+    "beacon's target has a third coordinate (the heading) and its filter a noise floor; the "
+    "[beacon grid](beacon_grid.md) page measures its filter against an exact 3-D grid "
+    "posterior."
 )
 
 

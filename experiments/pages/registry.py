@@ -13,6 +13,7 @@ from pathlib import Path
 
 from infoseek.experiments.pages.ablation import ablation_page
 from infoseek.experiments.pages.beacon import beacon_page
+from infoseek.experiments.pages.beacon_grid import beacon_grid_page
 from infoseek.experiments.pages.beacon_particles import beacon_particles_page
 from infoseek.experiments.pages.fig1 import fig1_page
 from infoseek.experiments.pages.fig2 import fig2_page
@@ -78,6 +79,7 @@ PAGES: dict[str, Page] = {
         Page("horizon", "fig1", horizon_page),
         Page("rl", "rl", rl_page),
         Page("grid_posterior", "grid_posterior", grid_posterior_page),
+        Page("beacon_grid", "beacon_grid", beacon_grid_page),
         Page("learned", "learned", learned_page),
     )
 }

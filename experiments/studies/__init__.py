@@ -9,7 +9,9 @@
 * :mod:`.horizon`: the receding-horizon planner and the clairvoyant reference on the Fig. 1
   store's targets (not in the paper);
 * :mod:`.grid_posterior`: the Fig. 1 store's episodes rerun beside an exact grid posterior (the
-  particle filter's own bias).
+  particle filter's own bias);
+* :mod:`.beacon_grid`: a beacon store's episodes rerun beside an exact 3-D grid posterior (the
+  beacon filter's own bias).
 
 Layers of :mod:`infoseek.experiments`, from the bottom:
 
