@@ -199,17 +199,42 @@ def test_fig2_page_quotes_the_step_20_distribution_of_the_beacon_study() -> None
     assert row in text
 
 
+def _ttl_and_off_target(store: Path) -> tuple[int, float, int, int]:
+    """Trials, mean censored time to localise, trials never localised and trials whose last
+    MMSE error exceeds the radius, recomputed from a store's raw rows."""
+    steps = int(read_manifest(store)["config"]["steps"])
+    rows = list(read_rows(store))
+    times = [next((t for t, m in enumerate(row["mass_agent0"]) if m >= 0.9), steps) for row in rows]
+    never = sum(all(m < 0.9 for m in row["mass_agent0"]) for row in rows)
+    off = sum(row["error_agent0"][-1] > row["radius"] for row in rows)
+    return len(rows), float(np.mean(times)), never, off
+
+
 def test_beacon_particles_page_times_are_those_of_its_stores() -> None:
-    """Each particle count's mean time to localise on the page, recomputed here from its
-    store's rows (first step with agent 0's mass >= 0.9, censored at the episode length)."""
+    """Each particle count's mean time to localise, never-localised and off-target counts on
+    the page, recomputed here from its store's rows (first step with agent 0's mass >= 0.9,
+    censored at the episode length; last MMSE error beyond the radius)."""
     text = (ROOT / "docs/results/beacon_particles.md").read_text()
     stores = sorted((ROOT / "experiments/results/beacon_particles").glob("n*/manifest.json"))
     assert len(stores) >= 3
     for manifest in stores:
-        steps = int(read_manifest(manifest.parent)["config"]["steps"])
-        times = [
-            next((t for t, m in enumerate(row["mass_agent0"]) if m >= 0.9), steps)
-            for row in read_rows(manifest.parent)
-        ]
+        n, mean, never, off = _ttl_and_off_target(manifest.parent)
         particles = manifest.parent.name[1:]
-        assert f"| {particles} | {len(times)} | {np.mean(times):.2f} (" in text, particles
+        row = f"| {particles} | {n} | {mean:.2f} ("
+        assert row in text, particles
+        assert f" | {never} of {n} | {off} of {n} | " in text.split(row, 1)[1].split("\n")[0]
+
+
+def test_beacon_filter_page_rows_are_those_of_its_stores() -> None:
+    """Each filter setting's row on the page: its options (from the store's manifest), mean
+    time to localise, never-localised and off-target counts, recomputed from the raw rows."""
+    text = (ROOT / "docs/results/beacon_filter.md").read_text()
+    stores = sorted((ROOT / "experiments/results/beacon_filter").glob("*/manifest.json"))
+    assert len(stores) >= 2
+    for manifest in stores:
+        options = read_manifest(manifest.parent)["config"]["env_kwargs"]
+        n, mean, never, off = _ttl_and_off_target(manifest.parent)
+        label = ", ".join(f"`{k}={json.dumps(v)}`" for k, v in sorted(options.items()))
+        row = f"| {label or 'defaults (reference)'} | {n} | {mean:.2f} ("
+        assert row in text, manifest.parent.name
+        assert f" | {never} of {n} | {off} of {n} | " in text.split(row, 1)[1].split("\n")[0]

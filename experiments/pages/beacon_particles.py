@@ -13,12 +13,9 @@ import os
 import re
 from pathlib import Path
 
-from infoseek.experiments.analysis import summarise
-from infoseek.experiments.columns import read_trials
-from infoseek.experiments.pages.bench_commands import bench_commands
 from infoseek.experiments.pages.markdown import code_block, display_path, page_text, table
-from infoseek.experiments.pages.provenance import read_provenance, stores_section
-from infoseek.experiments.studies.claims import baseline_lines
+from infoseek.experiments.pages.paired_stores import LabelledStore, paired_table
+from infoseek.experiments.pages.provenance import stores_section
 
 __all__ = ["REFERENCE_PARTICLES", "beacon_particles_page"]
 
@@ -31,8 +28,9 @@ _INTRO = (
     "with four quadrotors on `beacon_v0` with its defaults except the particles per belief "
     "(`--particles N`; the filters' noise floor `filter_max_snr = 5` stays), over the same "
     "seeded episodes: trial `k` of every store faces the same beacon, so every comparison is "
-    "paired. Time to localise as on the [beacon](beacon.md) page (agent 0's mass within the "
-    "localisation radius reaches 0.9; censored at the episode length)."
+    "paired with the reference, 2000 particles (`beacon_v0`'s default). Time to localise as "
+    "on the [beacon](beacon.md) page (agent 0's mass within the localisation radius reaches "
+    "0.9; censored at the episode length)."
 )
 
 
@@ -56,44 +54,12 @@ def beacon_particles_page(results: str | os.PathLike[str], page: str | os.PathLi
         page: Where the page is written.
     """
     results, page = Path(results), Path(page)
-    stores = _stores(results)
-    reference = dict(stores).get(REFERENCE_PARTICLES)
-    baseline = read_trials(reference) if reference is not None else []
-    rows, commands, provenances = [], [], []
-    for particles, store in stores:
-        provenance = read_provenance(store)
-        provenances.append(provenance)
-        commands.extend(bench_commands(store, provenance.manifest["config"], provenance.groups))
-        steps = int(provenance.manifest["config"]["steps"])
-        trials = read_trials(store)
-        for group in summarise(trials, steps):
-            q25, median, q75 = group.ttl_quartiles
-            paired = (
-                baseline_lines(trials, baseline, steps)[0].split(": ", 1)[1]
-                if baseline and particles != REFERENCE_PARTICLES
-                else "(the reference)"
-            )
-            rows.append(
-                [
-                    str(particles),
-                    str(group.trials),
-                    f"{group.ttl_mean:.2f} ({q25:.0f} / {median:.0f} / {q75:.0f})",
-                    f"{group.never} of {group.trials}",
-                    f"{group.final_mass:.3f}",
-                    paired,
-                ]
-            )
-    commands.append(
+    stores = [LabelledStore(str(particles), store) for particles, store in _stores(results)]
+    reference = next((s for s in stores if s.label == str(REFERENCE_PARTICLES)), None)
+    comparison = paired_table(stores, reference, "particles")
+    commands = comparison.commands + [
         f"infoseek page beacon_particles --results {display_path(results)} --out "
         f"{display_path(page)}"
-    )
-    header = [
-        "particles",
-        "trials",
-        "time to localise: mean (q25 / median / q75)",
-        "never localised",
-        "final mass (mean)",
-        f"paired with {REFERENCE_PARTICLES} particles (mean ttl, difference, two-sided Wilcoxon)",
     ]
     return page_text(
         [
@@ -102,7 +68,7 @@ def beacon_particles_page(results: str | os.PathLike[str], page: str | os.PathLi
             "## Commands",
             code_block("\n".join(commands), "bash"),
             "## Results",
-            table(header, rows),
-            stores_section(provenances),
+            table(comparison.header, comparison.rows),
+            stores_section(comparison.provenances),
         ]
     )

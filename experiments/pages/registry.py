@@ -13,6 +13,7 @@ from pathlib import Path
 
 from infoseek.experiments.pages.ablation import ablation_page
 from infoseek.experiments.pages.beacon import beacon_page
+from infoseek.experiments.pages.beacon_filter import beacon_filter_page
 from infoseek.experiments.pages.beacon_grid import beacon_grid_page
 from infoseek.experiments.pages.beacon_particles import beacon_particles_page
 from infoseek.experiments.pages.fig1 import fig1_page
@@ -75,6 +76,7 @@ PAGES: dict[str, Page] = {
         Page("fig2", "fig2", fig2_page),
         Page("beacon", "beacon", beacon_page),
         Page("beacon_particles", "beacon_particles", beacon_particles_page),
+        Page("beacon_filter", "beacon_filter", beacon_filter_page),
         Page("ablation", "ablation", ablation_page),
         Page("horizon", "fig1", horizon_page),
         Page("rl", "rl", rl_page),
