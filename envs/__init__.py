@@ -1,12 +1,13 @@
 """infoseek environments: sensors, vehicles, target models, particle beliefs and PettingZoo envs.
 
 ``make(env_id, **kwargs)`` builds a registered environment and ``registry`` lists them
-(``"bearings_v0"``, ``"beacon_v0"``); ``B`` batched copies stepped at once are a
+(``"bearings_v0"``, ``"beacon_v0"``, ``"beacon_v1"``); ``B`` batched copies stepped at once are a
 :class:`~infoseek.envs.core.SearchCore`, which :func:`infoseek.baselines.make_vec` wraps as a
-Stable-Baselines3 ``VecEnv``. The versioned modules ``infoseek.envs.bearings_v0`` and
-``infoseek.envs.beacon_v0`` expose ``parallel_env``, ``env`` (AEC) and ``raw_env``; their module
-docstrings are the manuals. Everything else is imported lazily on first attribute access, so
-``import infoseek.envs.sensors`` does not import PettingZoo.
+Stable-Baselines3 ``VecEnv``. The versioned modules ``infoseek.envs.bearings_v0``,
+``infoseek.envs.beacon_v0`` and ``infoseek.envs.beacon_v1`` expose ``parallel_env``, ``env``
+(AEC) and ``raw_env``; their module docstrings are the manuals. Everything else is imported
+lazily on first attribute access, so ``import infoseek.envs.sensors`` does not import
+PettingZoo.
 
 Importing the package registers the single-agent forms with Gymnasium
 (``gymnasium.make("infoseek/Bearings-v0")``, :mod:`infoseek.envs.single_agent`) and changes
@@ -27,6 +28,7 @@ __all__ = [
     "EnvSpec",
     "InformationSeekingEnv",
     "beacon_v0",
+    "beacon_v1",
     "bearings_v0",
     "make",
     "register",
@@ -36,7 +38,7 @@ __all__ = [
 _LAZY_ATTRIBUTES = {
     "InformationSeekingEnv": "infoseek.envs.search_env",
 }
-_LAZY_MODULES = ("bearings_v0", "beacon_v0")
+_LAZY_MODULES = ("bearings_v0", "beacon_v0", "beacon_v1")
 
 
 def __getattr__(name: str) -> Any:

@@ -147,3 +147,18 @@ register(
         description="quadrotors with rescue-beacon receivers, target (x, y, psi) (section IV-B)",
     )
 )
+register(
+    EnvSpec(
+        id="beacon_v1",
+        entry_point="infoseek.envs.beacon_v1:parallel_env",
+        aec_entry_point="infoseek.envs.beacon_v1:env",
+        kwargs={
+            **registry["beacon_v0"].kwargs,
+            "name": "beacon_v1",
+            "resample_threshold": 0.5,
+            "tempering_ess": 0.5,
+        },
+        description="beacon_v0 with the beliefs resampling at half the particles and "
+        "progressive correction at half the effective sample size",
+    )
+)

@@ -15,7 +15,7 @@ from infoseek.envs.belief import BeliefView
 from infoseek.envs.registration import EnvSpec, registry
 from infoseek.envs.search_env import INFO_KEYS, InformationSeekingEnv
 
-ENV_IDS = ("bearings_v0", "beacon_v0")
+ENV_IDS = ("bearings_v0", "beacon_v0", "beacon_v1")
 SMALL = {"n_particles": 300, "max_cycles": 8}
 
 
@@ -673,3 +673,26 @@ def test_settings_live_in_the_config_and_are_not_forwarded() -> None:
     on.reset(seed=0)
     _, _, _, _, infos = on.step({a: on.action_space(a).sample() for a in on.agents})
     assert "belief" in infos["vehicle_0"]
+
+
+def test_beacon_v1_is_beacon_v0_with_its_filter_settings() -> None:
+    """beacon_v1 steps through the same numbers as beacon_v0 given v1's two filter settings
+    (so a beacon_v0 store run with them is a beacon_v1 run), and differs from beacon_v0's
+    defaults once a belief would have resampled differently."""
+    settings = {"resample_threshold": 0.5, "tempering_ess": 0.5}
+    assert {k: registry["beacon_v1"].kwargs[k] for k in settings} == settings
+    runs = []
+    for env_id, extra in (("beacon_v1", {}), ("beacon_v0", settings), ("beacon_v0", {})):
+        env = infoseek.envs.make(env_id, n_agents=2, n_particles=300, max_cycles=12, **extra)
+        env.reset(seed=3)
+        rng = np.random.default_rng(0)
+        masses = []
+        while env.agents:
+            _, _, _, _, infos = env.step(_random_actions(env, rng))
+            masses.append([infos[a]["entropy"] for a in env.possible_agents])
+        particles = np.asarray(env.unwrapped.belief("vehicle_0").particles)
+        runs.append((np.asarray(masses), particles))
+    v1, v0_with_settings, v0 = runs
+    np.testing.assert_array_equal(v1[0], v0_with_settings[0])
+    np.testing.assert_array_equal(v1[1], v0_with_settings[1])
+    assert not np.array_equal(v1[1], v0[1])
