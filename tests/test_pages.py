@@ -226,10 +226,14 @@ def test_beacon_particles_page_times_are_those_of_its_stores() -> None:
 
 
 def test_beacon_filter_page_rows_are_those_of_its_stores() -> None:
-    """Each filter setting's row on the page: its options (from the store's manifest), mean
-    time to localise, never-localised and off-target counts, recomputed from the raw rows."""
+    """Each filter setting's row on the page (the single-node settings and the pairwise-node
+    checks): its options (from the store's manifest), mean time to localise, never-localised and
+    off-target counts, recomputed from the raw rows."""
     text = (ROOT / "docs/results/beacon_filter.md").read_text()
-    stores = sorted((ROOT / "experiments/results/beacon_filter").glob("*/manifest.json"))
+    results = ROOT / "experiments/results/beacon_filter"
+    stores = sorted(results.glob("*/manifest.json")) + sorted(
+        results.glob("pairwise/*/manifest.json")
+    )
     assert len(stores) >= 2
     for manifest in stores:
         options = read_manifest(manifest.parent)["config"]["env_kwargs"]

@@ -16,13 +16,17 @@ from pathlib import Path
 
 from infoseek.experiments.pages.markdown import code_block, display_path, page_text, table
 from infoseek.experiments.pages.paired_stores import LabelledStore, paired_table
-from infoseek.experiments.pages.provenance import stores_section
+from infoseek.experiments.pages.provenance import StoreProvenance, stores_section
 from infoseek.experiments.store import read_manifest
 
-__all__ = ["REFERENCE_STORE", "beacon_filter_page"]
+__all__ = ["PAIRWISE_DIRECTORY", "REFERENCE_STORE", "beacon_filter_page"]
 
 #: The directory of the store every other one is compared with (``beacon_v0``'s defaults).
 REFERENCE_STORE = "reference"
+#: The subdirectory of the pairwise-node checks (one store per setting), paired with the beacon
+#: study's store (``beacon/store`` beside the study's directory), which holds ``beacon_v0``'s
+#: defaults with the same seeds.
+PAIRWISE_DIRECTORY = "pairwise"
 
 _INTRO = (
     "A question of the beacon issue: which settings of `beacon_v0`'s particle filter let the "
@@ -59,6 +63,38 @@ def _stores(results: Path) -> list[LabelledStore]:
     return [LabelledStore(_label(child), child) for child in found]
 
 
+_PAIRWISE_INTRO = (
+    "A setting is checked with the pairwise-node planner on more episodes: each store below "
+    "runs it with four quadrotors over the seeded episodes of the [beacon](beacon.md) study's "
+    "store (`beacon_v0`'s defaults, the same seed), and is paired with that store's "
+    "`pairwise/4` trials. `beacon_v1` is `beacon_v0` with the setting "
+    "`resample_threshold=0.5, tempering_ess=0.5` (a test holds the two equal bit for bit), so "
+    "its row is `beacon_v1` against `beacon_v0`."
+)
+
+
+def _pairwise_section(results: Path) -> tuple[list[str], list[str], list[StoreProvenance]]:
+    """The pairwise-node checks' commands, page blocks and provenance (empty if none)."""
+    directory = results / PAIRWISE_DIRECTORY
+    reference = results.parent / "beacon" / "store"
+    if not directory.is_dir():
+        return [], [], []
+    stores = [
+        LabelledStore(_label(child), child)
+        for child in sorted(directory.iterdir())
+        if (child / "manifest.json").is_file()
+    ]
+    if not stores:
+        return [], [], []
+    comparison = paired_table(stores, LabelledStore("beacon study", reference), "filter options")
+    blocks = [
+        "## The pairwise-node planner on the beacon study's episodes",
+        _PAIRWISE_INTRO,
+        table(comparison.header, comparison.rows),
+    ]
+    return comparison.commands, blocks, comparison.provenances
+
+
 def beacon_filter_page(results: str | os.PathLike[str], page: str | os.PathLike[str]) -> str:
     """The Markdown of the beacon filter-settings page.
 
@@ -69,9 +105,11 @@ def beacon_filter_page(results: str | os.PathLike[str], page: str | os.PathLike[
     results, page = Path(results), Path(page)
     stores = _stores(results)
     comparison = paired_table(stores, stores[0], "filter options")
-    commands = comparison.commands + [
+    pairwise_commands, pairwise_blocks, pairwise_provenances = _pairwise_section(results)
+    commands = comparison.commands + pairwise_commands
+    commands.append(
         f"infoseek page beacon_filter --results {display_path(results)} --out {display_path(page)}"
-    ]
+    )
     return page_text(
         [
             "# Beacon: time to localise against the filter settings (`beacon_v0`)",
@@ -80,6 +118,7 @@ def beacon_filter_page(results: str | os.PathLike[str], page: str | os.PathLike[
             code_block("\n".join(commands), "bash"),
             "## Results",
             table(comparison.header, comparison.rows),
-            stores_section(comparison.provenances),
+            *pairwise_blocks,
+            stores_section(comparison.provenances + pairwise_provenances),
         ]
     )

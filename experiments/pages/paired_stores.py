@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from infoseek.experiments.analysis import summarise
+from infoseek.experiments.analysis import summarise, times_to_localise
 from infoseek.experiments.columns import TrialView, read_trials
 from infoseek.experiments.pages.bench_commands import bench_commands
 from infoseek.experiments.pages.provenance import StoreProvenance, read_provenance
@@ -94,10 +94,11 @@ def paired_table(
             key = (group.planner, group.n_agents)
             members = [t for t in trials if (t.planner, t.n_agents) == key]
             off = ended_off_target(members)
-            paired = "(the reference)"
+            paired, sooner = "(the reference)", ""
             if baseline and reference is not None and store.path != reference.path:
                 lines = baseline_lines(members, baseline, steps)
                 paired = lines[0].split(": ", 1)[1] if lines else "no trials in common"
+                sooner = _percent_sooner(members, baseline, key, steps)
             rows.append(
                 [
                     store.label,
@@ -107,6 +108,7 @@ def paired_table(
                     "not recorded" if off is None else f"{off} of {group.trials}",
                     f"{group.final_mass:.3f}",
                     paired,
+                    sooner,
                 ]
             )
     header = [
@@ -117,5 +119,21 @@ def paired_table(
         "end more than the radius off the truth",
         "final mass (mean)",
         "paired with the reference (mean ttl, difference, two-sided Wilcoxon)",
+        "sooner than the reference (% of its mean ttl over the paired trials)",
     ]
     return PairedTable(header, rows, commands, provenances)
+
+
+def _percent_sooner(
+    trials: Sequence[TrialView], baseline: Sequence[TrialView], key: tuple[str, int], steps: int
+) -> str:
+    """How much sooner ``trials`` localise than ``baseline`` over the trials both hold, in
+    percent of the baseline's mean (negative: later); empty without common trials."""
+    mine = times_to_localise(trials, key[0], key[1], steps)
+    theirs = times_to_localise(baseline, key[0], key[1], steps)
+    common = sorted(set(mine) & set(theirs))
+    if not common:
+        return ""
+    reference = sum(theirs[k] for k in common) / len(common)
+    here = sum(mine[k] for k in common) / len(common)
+    return f"{100.0 * (reference - here) / reference:+.1f} %"
