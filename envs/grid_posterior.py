@@ -71,7 +71,17 @@ from infoseek.envs.targets import StationaryTarget
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
 
-__all__ = ["DEFAULT_CELLS", "DEFAULT_SUBCELLS", "GridPosterior", "check_radius", "disk_mass"]
+__all__ = [
+    "DEFAULT_CELLS",
+    "DEFAULT_SUBCELLS",
+    "GridPosterior",
+    "check_cells",
+    "check_point",
+    "check_positive_int",
+    "check_radius",
+    "check_update_arrays",
+    "disk_mass",
+]
 
 #: Cells per axis of :meth:`GridPosterior.from_config` (0.1 units on a 40-unit domain).
 DEFAULT_CELLS = 400
@@ -113,12 +123,12 @@ class GridPosterior:
         Raises:
             ValueError: An argument out of its range (the message names it).
         """
-        self.low = _point(low, "low")
-        self.high = _point(high, "high")
+        self.low = check_point(low, "low")
+        self.high = check_point(high, "high")
         if not np.all(self.high > self.low):
             raise ValueError(f"high must exceed low in both coordinates, got {low!r}, {high!r}")
-        self.shape = _cells(cells)
-        self.subcells = _positive_int(subcells, "subcells", 1)
+        self.shape = check_cells(cells)
+        self.subcells = check_positive_int(subcells, "subcells", 1)
         if prune is not None and not (isinstance(prune, int | float) and prune > 0):
             raise ValueError(f"prune must be a positive number of nats or None, got {prune!r}")
         self.prune = None if prune is None else float(prune)
@@ -202,7 +212,7 @@ class GridPosterior:
         """
         if not callable(getattr(sensor, "log_likelihood", None)):
             raise TypeError(f"sensor must have log_likelihood(z, poses, particles), got {sensor!r}")
-        poses, measurements, received = _update_arrays(poses, measurements, received)
+        poses, measurements, received = check_update_arrays(poses, measurements, received)
         if not received.any():
             return 0.0
         loglik = np.asarray(
@@ -238,7 +248,7 @@ class GridPosterior:
             ValueError: ``radius`` or ``centre`` out of range.
         """
         radius = check_radius(radius)
-        q = _point(centre, "centre")
+        q = check_point(centre, "centre")
         points = self._centres[self._active]
         return disk_mass(points, self._weights(), self.cell_sides, self.subcells, radius, q)
 
@@ -287,7 +297,7 @@ def disk_mass(
     return inside + float(weights[edge] @ fraction)
 
 
-def _point(value: Any, name: str) -> FloatArray:
+def check_point(value: Any, name: str) -> FloatArray:
     """``value`` as a finite ``(2,)`` float array, or a ``ValueError`` naming ``name``."""
     try:
         array = np.asarray(value, dtype=np.float64)
@@ -298,23 +308,24 @@ def _point(value: Any, name: str) -> FloatArray:
     return array
 
 
-def _positive_int(value: Any, name: str, least: int) -> int:
+def check_positive_int(value: Any, name: str, least: int) -> int:
+    """``value`` as an ``int >= least``, or a ``ValueError`` naming ``name``."""
     if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < least:
         raise ValueError(f"{name} must be an integer >= {least}, got {value!r}")
     return int(value)
 
 
-def _cells(cells: Any) -> tuple[int, int]:
+def check_cells(cells: Any) -> tuple[int, int]:
     """``cells`` as ``(n_x, n_y)``, each ``>= 2``."""
     if isinstance(cells, tuple | list):
         if len(cells) != 2:
             raise ValueError(f"cells must be an integer or a pair, got {cells!r}")
-        return _positive_int(cells[0], "cells", 2), _positive_int(cells[1], "cells", 2)
-    n = _positive_int(cells, "cells", 2)
+        return check_positive_int(cells[0], "cells", 2), check_positive_int(cells[1], "cells", 2)
+    n = check_positive_int(cells, "cells", 2)
     return n, n
 
 
-def _update_arrays(
+def check_update_arrays(
     poses: Any, measurements: Any, received: Any
 ) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
     """The arguments of :meth:`GridPosterior.update`, checked (a ``ValueError`` names the

@@ -80,11 +80,11 @@ from infoseek.envs.beacon_grid_kernel import beacon_cell_log_likelihood
 from infoseek.envs.grid_posterior import (
     DEFAULT_CELLS,
     DEFAULT_SUBCELLS,
-    _cells,
-    _point,
-    _positive_int,
-    _update_arrays,
+    check_cells,
+    check_point,
+    check_positive_int,
     check_radius,
+    check_update_arrays,
     disk_mass,
 )
 from infoseek.envs.sensors.beacon import BeaconSensor
@@ -141,19 +141,19 @@ class OrientedGridPosterior:
         Raises:
             ValueError: An argument out of its range (the message names it).
         """
-        self.low = _point(low, "low")
-        self.high = _point(high, "high")
+        self.low = check_point(low, "low")
+        self.high = check_point(high, "high")
         if not np.all(self.high > self.low):
             raise ValueError(f"high must exceed low in both coordinates, got {low!r}, {high!r}")
-        n_x, n_y = _cells(cells)
-        n_psi = _positive_int(orientation_cells, "orientation_cells", 2)
+        n_x, n_y = check_cells(cells)
+        n_psi = check_positive_int(orientation_cells, "orientation_cells", 2)
         if isinstance(period, bool) or not isinstance(period, int | float):
             raise ValueError(f"period must be a positive number, got {period!r}")
         if not (math.isfinite(period) and period > 0):
             raise ValueError(f"period must be finite and > 0, got {period!r}")
         self.period = float(period)
         self.shape = (n_x, n_y, n_psi)
-        self.subcells = _positive_int(subcells, "subcells", 1)
+        self.subcells = check_positive_int(subcells, "subcells", 1)
         if prune is not None and not (isinstance(prune, int | float) and prune > 0):
             raise ValueError(f"prune must be a positive number of nats or None, got {prune!r}")
         self.prune = None if prune is None else float(prune)
@@ -276,7 +276,7 @@ class OrientedGridPosterior:
         """
         if not callable(getattr(sensor, "log_likelihood", None)):
             raise TypeError(f"sensor must have log_likelihood(z, poses, particles), got {sensor!r}")
-        poses, measurements, received = _update_arrays(poses, measurements, received)
+        poses, measurements, received = check_update_arrays(poses, measurements, received)
         if not received.any():
             return 0.0
         loglik = self._log_likelihood(sensor, poses[received], measurements[received])
@@ -351,7 +351,7 @@ class OrientedGridPosterior:
             ValueError: ``radius`` or ``centre`` out of range.
         """
         radius = check_radius(radius)
-        q = _point(centre, "centre")
+        q = check_point(centre, "centre")
         held, mass = self._position_marginal()
         points = self._positions[held]
         return disk_mass(points, mass, self.cell_sides[:2], self.subcells, radius, q)
