@@ -82,6 +82,7 @@ PAGES: dict[str, Page] = {
         Page("rl", "rl", rl_page),
         Page("grid_posterior", "grid_posterior", grid_posterior_page),
         Page("beacon_grid", "beacon_grid", beacon_grid_page),
+        Page("beacon_grid_v1", "beacon_grid_v1", beacon_grid_page),
         Page("learned", "learned", learned_page),
     )
 }
