@@ -123,11 +123,12 @@ infoseek.envs.beacon_v0.parallel_env(
 * `resample_threshold` (1.0), `roughening` (0.2), `entropy_bins` (None: the adaptive
   grid of :mod:`infoseek.envs.entropy`; a triple: a fixed grid): belief options.
 * `tempering_ess` (0.0: off): the beliefs' progressive correction (see
-  :mod:`infoseek.envs.belief`). Off for this version: its Metropolis moves treat the prior as
-  locally flat, which is exact only for the uniform prior; with a concentrated belief they
-  drift particles toward the current readings, and with the noise floor below the sharp
-  near-field updates no longer need it (the paper's Fig. 2 episode of
-  `infoseek reproduce fig2` localised with it off and formed a false fix with it on).
+  :mod:`infoseek.envs.belief`). Off for this version, which was made when its Metropolis moves
+  still treated the prior as locally flat (with a concentrated belief they drifted particles
+  toward the current readings; the paper's Fig. 2 episode of `infoseek reproduce fig2` formed a
+  false fix with it on). The moves now target the exact posterior given every kept
+  observation; ``beacon_v1`` turns the correction on (with resampling at half the particles),
+  which localises sooner (`docs/results/beacon_filter.md`).
 * `filter_max_snr` (5.0): the filters' noise floor. Every belief evaluates the beacon
   likelihood as if the field noise were inflated wherever the signal-to-noise ratio
   ``|H| / noise_std`` exceeds 5 (angular std floor ~0.2 rad), because within a few units of the
