@@ -94,6 +94,12 @@ def time_to_localise(
     return None
 
 
+def censored_time_to_localise(mass: Sequence[float] | FloatArray, steps: float) -> float:
+    """:func:`time_to_localise` of ``mass``, or ``steps`` (the episode length) if never."""
+    ttl = time_to_localise(mass)
+    return float(steps) if ttl is None else float(ttl)
+
+
 def times_to_localise(
     trials: Sequence[Trial], planner: str, n_agents: int, steps: int
 ) -> dict[int, float]:

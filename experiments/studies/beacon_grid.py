@@ -41,7 +41,6 @@ that.
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import time
@@ -55,13 +54,14 @@ from threadpoolctl import threadpool_limits
 
 from infoseek.envs.grid_posterior import DEFAULT_CELLS
 from infoseek.envs.oriented_grid_posterior import DEFAULT_ORIENTATION_CELLS, OrientedGridPosterior
-from infoseek.experiments.analysis import time_to_localise
+from infoseek.experiments.analysis import censored_time_to_localise
 from infoseek.experiments.bench import BenchPlan
 from infoseek.experiments.columns import TrialView, read_trials
 from infoseek.experiments.environments import make_env
 from infoseek.experiments.executors import spawn_pool
 from infoseek.experiments.policies import build_policy
-from infoseek.experiments.store import jsonable, read_manifest
+from infoseek.experiments.record_files import read_record_file, write_record_file
+from infoseek.experiments.store import read_manifest
 from infoseek.experiments.trial import TrialSpec, position_metrics
 
 __all__ = [
@@ -235,8 +235,8 @@ def run_beacon_grid_trial(
         grid_mass=tuple(round(m, 6) for m in series["grid_mass"]),
         grid_error=tuple(round(e, 4) for e in series["grid_error"]),
         grid_psi_error=tuple(round(e, 4) for e in series["grid_psi_error"]),
-        filter_ttl=int(_censored(series["filter_mass"], steps)),
-        grid_ttl=int(_censored(series["grid_mass"], steps)),
+        filter_ttl=int(censored_time_to_localise(series["filter_mass"], steps)),
+        grid_ttl=int(censored_time_to_localise(series["grid_mass"], steps)),
         truth_active=truth_active,
         wall_time=round(wall, 1),
     )
@@ -254,11 +254,6 @@ def _check_stored(
 def _shortest(values: Sequence[float]) -> tuple[float, ...]:
     """The float32 values' shortest decimal digits (as the store holds them)."""
     return tuple(float(str(v)) for v in np.asarray(values, dtype=np.float32))
-
-
-def _censored(mass: Sequence[float], steps: float) -> float:
-    ttl = time_to_localise(mass)
-    return steps if ttl is None else float(ttl)
 
 
 def _axial_error(estimate: float, truth: float) -> float:
@@ -373,12 +368,7 @@ def write_results(
     name: str = RESULTS_FILE,
 ) -> Path:
     """Write ``OUT/NAME``: the provenance, then one line per trial; returns the path."""
-    path = Path(out) / name
-    path.parent.mkdir(parents=True, exist_ok=True)
-    head = json.dumps(jsonable(provenance), indent=1, sort_keys=True)
-    lines = [json.dumps(jsonable(asdict(r)), sort_keys=True) for r in results]
-    path.write_text(f'{{"provenance": {head},\n"trials": [\n' + ",\n".join(lines) + "\n]}\n")
-    return path
+    return write_record_file(Path(out) / name, results, provenance)
 
 
 def read_results(
@@ -389,11 +379,8 @@ def read_results(
     Raises:
         ValueError: No results file there.
     """
-    path = Path(directory) / name
-    if not path.is_file():
-        raise ValueError(f"no beacon grid results at {path}")
-    body = json.loads(path.read_text())
-    return [_trial_of(row) for row in body["trials"]], body["provenance"]
+    rows, provenance = read_record_file(Path(directory) / name, "beacon grid results")
+    return [_trial_of(row) for row in rows], provenance
 
 
 _SERIES = ("truth", "filter_mass", "filter_error", "grid_mass", "grid_error", "grid_psi_error")

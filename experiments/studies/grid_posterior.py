@@ -27,11 +27,10 @@ read whole by the results page; the Parquet stores serve resumable runs of thous
 
 from __future__ import annotations
 
-import json
 import os
 import time
 from collections.abc import Iterator, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -39,13 +38,14 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from infoseek.envs.grid_posterior import DEFAULT_CELLS, GridPosterior
-from infoseek.experiments.analysis import time_to_localise
+from infoseek.experiments.analysis import censored_time_to_localise
 from infoseek.experiments.bench import BenchPlan
 from infoseek.experiments.columns import TrialView, read_trials
 from infoseek.experiments.environments import make_env
 from infoseek.experiments.executors import spawn_pool
 from infoseek.experiments.policies import build_policy
-from infoseek.experiments.store import jsonable, read_manifest
+from infoseek.experiments.record_files import read_record_file, write_record_file
+from infoseek.experiments.store import read_manifest
 from infoseek.experiments.trial import TrialSpec, position_metrics
 
 __all__ = [
@@ -166,14 +166,9 @@ def run_grid_trial(spec: TrialSpec, stored_mass: Sequence[float], cells: int) ->
         filter_mass=tuple(float(str(m)) for m in stored),  # the float32's shortest digits
         grid_mass=tuple(round(m, 6) for m in grid_mass),
         grid_error=tuple(round(e, 4) for e in grid_error),
-        filter_ttl=int(_censored(filter_mass, steps)),
-        grid_ttl=int(_censored(grid_mass, steps)),
+        filter_ttl=int(censored_time_to_localise(filter_mass, steps)),
+        grid_ttl=int(censored_time_to_localise(grid_mass, steps)),
     )
-
-
-def _censored(mass: Sequence[float], steps: float) -> float:
-    ttl = time_to_localise(mass)
-    return steps if ttl is None else float(ttl)
 
 
 def _episode(
@@ -248,12 +243,7 @@ def write_results(
 ) -> Path:
     """Write ``OUT/grid_posterior.json``: the provenance, then one line per trial; returns the
     path."""
-    path = Path(out) / RESULTS_FILE
-    path.parent.mkdir(parents=True, exist_ok=True)
-    head = json.dumps(jsonable(provenance), indent=1, sort_keys=True)
-    lines = [json.dumps(jsonable(asdict(r)), sort_keys=True) for r in results]
-    path.write_text(f'{{"provenance": {head},\n"trials": [\n' + ",\n".join(lines) + "\n]}\n")
-    return path
+    return write_record_file(Path(out) / RESULTS_FILE, results, provenance)
 
 
 def read_results(directory: str | os.PathLike[str]) -> tuple[list[GridTrial], dict[str, Any]]:
@@ -262,12 +252,8 @@ def read_results(directory: str | os.PathLike[str]) -> tuple[list[GridTrial], di
     Raises:
         ValueError: No results file there.
     """
-    path = Path(directory) / RESULTS_FILE
-    if not path.is_file():
-        raise ValueError(f"no grid-posterior results at {path}")
-    body = json.loads(path.read_text())
-    trials = [_trial_of(row) for row in body["trials"]]
-    return trials, body["provenance"]
+    rows, provenance = read_record_file(Path(directory) / RESULTS_FILE, "grid-posterior results")
+    return [_trial_of(row) for row in rows], provenance
 
 
 def _trial_of(row: dict[str, Any]) -> GridTrial:
