@@ -10,14 +10,15 @@ from __future__ import annotations
 
 import json
 import os
+import time
 from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from infoseek.experiments.store import jsonable
+from infoseek.experiments.store import jsonable, read_manifest
 
-__all__ = ["read_record_file", "write_record_file"]
+__all__ = ["read_record_file", "rerun_provenance", "write_record_file"]
 
 
 def write_record_file(
@@ -55,3 +56,37 @@ def read_record_file(
         raise ValueError(f"no {what} at {path}")
     body = json.loads(path.read_text())
     return list(body["trials"]), body["provenance"]
+
+
+def rerun_provenance(
+    command: str,
+    store: str | os.PathLike[str],
+    workers: int,
+    wall_time: float,
+    details: dict[str, Any],
+) -> dict[str, Any]:
+    """The provenance of a run that reran a store's trials: the command, the store and its run
+    configuration, the study's ``details`` (its grid, groups, ...), the workers and wall time,
+    the machine, the numerics and the time of writing.
+
+    Args:
+        command: The command line.
+        store: The store whose trials were rerun.
+        workers: Worker processes.
+        wall_time: Seconds the run took.
+        details: The study's own settings.
+    """
+    from infoseek.experiments.machine import describe_machine
+    from infoseek.experiments.numerics import describe
+
+    return {
+        "command": command,
+        "store": Path(os.path.relpath(store)).as_posix(),
+        "config": read_manifest(store)["config"],
+        **details,
+        "workers": workers,
+        "wall_time": round(wall_time, 1),
+        "machine": describe_machine(),
+        "numerics": describe(),
+        "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+    }

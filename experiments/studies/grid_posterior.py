@@ -39,13 +39,16 @@ from threadpoolctl import threadpool_limits
 
 from infoseek.envs.grid_posterior import DEFAULT_CELLS, GridPosterior
 from infoseek.experiments.analysis import censored_time_to_localise
-from infoseek.experiments.bench import BenchPlan
-from infoseek.experiments.columns import TrialView, read_trials
+from infoseek.experiments.columns import TrialView
 from infoseek.experiments.environments import make_env
 from infoseek.experiments.executors import spawn_pool
 from infoseek.experiments.policies import build_policy
-from infoseek.experiments.record_files import read_record_file, write_record_file
-from infoseek.experiments.store import read_manifest
+from infoseek.experiments.record_files import (
+    read_record_file,
+    rerun_provenance,
+    write_record_file,
+)
+from infoseek.experiments.stored_trials import stored_trial_specs
 from infoseek.experiments.trial import TrialSpec, position_metrics
 
 __all__ = [
@@ -108,34 +111,13 @@ def grid_specs(
     store: str | os.PathLike[str], planners: Sequence[str], trials: int
 ) -> Iterator[tuple[TrialSpec, TrialView]]:
     """The spec of trial ``0..trials-1`` of every group ``(planner, 4)`` the store holds, with
-    its stored view (the harness's plan and seeds; a seed that differs from the stored one is
-    an error).
+    its stored view (:func:`~infoseek.experiments.stored_trials.stored_trial_specs`).
 
     Raises:
         ValueError: ``trials`` below 1, or a group holds fewer trials than asked for.
     """
-    if isinstance(trials, bool) or not isinstance(trials, int) or trials < 1:
-        raise ValueError(f"trials must be a positive integer, got {trials!r}")
-    config = read_manifest(store)["config"]
-    stored = {(v.planner, v.n_agents, v.trial): v for v in read_trials(store)}
-    groups = [(p, N_AGENTS) for p in planners if (p, N_AGENTS, 0) in stored]
-    for planner, n in groups:
-        held = sum(1 for k in range(trials) if (planner, n, k) in stored)
-        if held < trials:
-            raise ValueError(f"trials: the store holds {held} of {planner}/{n}, asked {trials}")
-    plan = BenchPlan(
-        env=str(config["env"]),
-        env_kwargs=dict(config["env_kwargs"]),
-        steps=int(config["steps"]),
-        seed=int(config["seed"]),
-        groups=groups,
-        trials=trials,
-    )
-    for spec in plan.iter_specs(store):
-        view = stored[(spec.planner, spec.n_agents, spec.trial)]
-        if view.env_seed != spec.env_seed:
-            raise ValueError(f"{spec.describe()}: the store has env_seed {view.env_seed}")
-        yield spec, view
+    groups = [(planner, N_AGENTS) for planner in planners]
+    return stored_trial_specs(store, groups, trials, skip_absent=True)
 
 
 def run_grid_trial(spec: TrialSpec, stored_mass: Sequence[float], cells: int) -> GridTrial:
@@ -278,20 +260,8 @@ def provenance(
     command: str, store: str | os.PathLike[str], cells: int, workers: int, wall_time: float
 ) -> dict[str, Any]:
     """What the results file records of its run (the store's run configuration included)."""
-    from infoseek.experiments.machine import describe_machine
-    from infoseek.experiments.numerics import describe
-
-    return {
-        "command": command,
-        "store": Path(os.path.relpath(store)).as_posix(),
-        "config": read_manifest(store)["config"],
-        "grid": {"cells": cells, "prune": PRUNE},
-        "workers": workers,
-        "wall_time": round(wall_time, 1),
-        "machine": describe_machine(),
-        "numerics": describe(),
-        "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-    }
+    details = {"grid": {"cells": cells, "prune": PRUNE}}
+    return rerun_provenance(command, store, workers, wall_time, details)
 
 
 #: The store the study reruns by default (the committed Fig. 1 store, from the checkout's root).
