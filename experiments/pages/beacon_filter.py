@@ -86,7 +86,7 @@ def _pairwise_section(results: Path) -> tuple[list[str], list[str], list[StorePr
     ]
     if not stores:
         return [], [], []
-    comparison = paired_table(stores, LabelledStore("beacon study", reference), "filter options")
+    comparison = paired_table(stores, reference, "filter options")
     blocks = [
         "## The pairwise-node planner on the beacon study's episodes",
         _PAIRWISE_INTRO,
@@ -104,7 +104,7 @@ def beacon_filter_page(results: str | os.PathLike[str], page: str | os.PathLike[
     """
     results, page = Path(results), Path(page)
     stores = _stores(results)
-    comparison = paired_table(stores, stores[0], "filter options")
+    comparison = paired_table(stores, stores[0].path, "filter options")
     pairwise_commands, pairwise_blocks, pairwise_provenances = _pairwise_section(results)
     commands = comparison.commands + pairwise_commands
     commands.append(

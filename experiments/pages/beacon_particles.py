@@ -55,7 +55,7 @@ def beacon_particles_page(results: str | os.PathLike[str], page: str | os.PathLi
     """
     results, page = Path(results), Path(page)
     stores = [LabelledStore(str(particles), store) for particles, store in _stores(results)]
-    reference = next((s for s in stores if s.label == str(REFERENCE_PARTICLES)), None)
+    reference = next((s.path for s in stores if s.label == str(REFERENCE_PARTICLES)), None)
     comparison = paired_table(stores, reference, "particles")
     commands = comparison.commands + [
         f"infoseek page beacon_particles --results {display_path(results)} --out "

@@ -70,17 +70,17 @@ def ended_off_target(trials: Sequence[TrialView]) -> int | None:
 
 
 def paired_table(
-    stores: Sequence[LabelledStore], reference: LabelledStore | None, label_title: str
+    stores: Sequence[LabelledStore], reference: Path | None, label_title: str
 ) -> PairedTable:
-    """The comparison table of ``stores`` (module docstring), each paired with ``reference``
-    (one of them; ``None``: no paired column entries).
+    """The comparison table of ``stores`` (module docstring), each paired with the store at
+    ``reference`` (one of them or another; ``None``: no paired column entries).
 
     Args:
         stores: The stores, in row order.
-        reference: The store every other one is paired with.
+        reference: The directory of the store every other one is paired with.
         label_title: The title of the label column.
     """
-    baseline = read_trials(reference.path) if reference is not None else []
+    baseline = read_trials(reference) if reference is not None else []
     rows, commands, provenances = [], [], []
     for store in stores:
         provenance = read_provenance(store.path)
@@ -95,7 +95,7 @@ def paired_table(
             members = [t for t in trials if (t.planner, t.n_agents) == key]
             off = ended_off_target(members)
             paired, sooner = "(the reference)", ""
-            if baseline and reference is not None and store.path != reference.path:
+            if baseline and store.path != reference:
                 lines = baseline_lines(members, baseline, steps)
                 paired = lines[0].split(": ", 1)[1] if lines else "no trials in common"
                 sooner = _percent_sooner(members, baseline, key, steps)
