@@ -385,6 +385,15 @@ class BeliefBatch:
     def _row_log_likelihood(
         sensor: Any, z: FloatArray, poses: FloatArray, particles: FloatArray
     ) -> FloatArray:
+        """``(N,)`` log-likelihood of the ``(M, obs_dim)`` readings ``z`` at ``(N, d)``
+        ``particles``, summed over the readings (the sensor's compiled
+        ``summed_log_likelihood`` where it has one, as one group of one belief)."""
+        compiled = getattr(sensor, "summed_log_likelihood", None)
+        if compiled is not None:
+            every = np.ones((1, z.shape[0]), dtype=bool)
+            total = compiled(z[None], poses[None], particles[None], every)
+            if total is not None:
+                return _checked_total(sensor, total[0])
         loglik = _sensor_log_likelihood(sensor, z, poses, particles)
         return _checked_total(sensor, loglik.sum(axis=0))
 

@@ -4,6 +4,9 @@ against independent references (closed forms, brute-force image sums)."""
 from __future__ import annotations
 
 import math
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -13,9 +16,11 @@ from infoseek.envs.log_weights import bayes_step, ess_rows, logsumexp_rows, norm
 from infoseek.envs.order_statistics import order_statistic_pair, stable_argsort
 from infoseek.envs.resampling import systematic_resample_rows
 from infoseek.envs.roughening import coordinate_ranges, jitter
-from infoseek.envs.sensors import BearingSensor
+from infoseek.envs.sensors import BeaconSensor, BearingSensor
+from infoseek.envs.sensors.beacon_kernel import summed_beacon_log_likelihood
 from infoseek.envs.sensors.wrapped_normal import summed_log_likelihood
 from infoseek.envs.targets import reflect_into_interval
+from infoseek.experiments.numerics import PINNED
 
 
 def _log_weights(rng: np.random.Generator, k: int, n: int) -> np.ndarray:
@@ -185,3 +190,99 @@ def test_radix_argsort_is_numpys_stable_argsort_and_selection_is_sorting() -> No
             for low, high in ((0, n - 1), (min(1, n - 1), max(n - 3, 1)), (n // 3, n // 2)):
                 low, high = min(low, high, n - 1), min(max(low, high), n - 1)
                 assert order_statistic_pair(values, low, high) == (ordered[low], ordered[high])
+
+
+def _beacon_case(rng: np.random.Generator) -> tuple[np.ndarray, ...]:
+    """Readings of 2 groups x 3 receivers, 4 beliefs of 40 particles (some at a receiver)."""
+    groups, per, m, n = 2, 2, 3, 40
+    poses = rng.uniform(0.0, 40.0, size=(groups, m, 2))
+    z = rng.uniform(0.0, math.pi, size=(groups, m, 1))
+    particles = np.stack(
+        [rng.uniform(0.0, 40.0, n), rng.uniform(0.0, 40.0, n), rng.uniform(0.0, 2 * math.pi, n)],
+        axis=-1,
+    )[None].repeat(groups * per, axis=0)
+    particles[:, :10, :2] = poses[0, 0] + rng.normal(0.0, 0.5, size=(groups * per, 10, 2))
+    received = rng.random((groups * per, m)) < 0.7
+    return z, poses, particles, received
+
+
+def _quadrature_log_density(z: float, mu: np.ndarray) -> float:
+    """``log p(z)`` of the direction of ``X ~ N(mu, I)`` folded modulo pi, by the trapezoid rule
+    over the radius along the ray and along its reflection (independent of the sensor's
+    formula): with ``a``, ``b`` the components of ``mu`` along and across the ray,
+    ``|t u - mu|^2 = (t - a)^2 + b^2``, so each ray integrates ``t exp(-(t -+ a)^2 / 2)``
+    over a window around its peak."""
+    u = np.array([math.cos(z), math.sin(z)])
+    along, across = float(u @ mu), float(u[0] * mu[1] - u[1] * mu[0])
+    radial = 0.0
+    for a in (along, -along):
+        t = np.linspace(max(0.0, a - 12.0), max(a, 0.0) + 12.0, 20001)
+        radial += float(np.trapezoid(t * np.exp(-0.5 * (t - a) ** 2), t))
+    return -0.5 * across**2 + math.log(radial / (2.0 * math.pi))
+
+
+@pytest.mark.parametrize("max_snr", [5.0, math.inf])
+def test_summed_beacon_likelihood_is_the_sum_of_received_projected_normal_densities(
+    max_snr: float,
+) -> None:
+    rng = np.random.default_rng(8)
+    z, poses, particles, received = _beacon_case(rng)
+    sensor = BeaconSensor(moment=1000.0, noise_std=1.0, max_snr=max_snr)
+    total = sensor.summed_log_likelihood(z, poses, particles, received)
+    assert total is not None and total.shape == received.shape[:1] + particles.shape[1:2]
+    per = particles.shape[0] // z.shape[0]
+    for k, n in [(0, 0), (1, 5), (2, 12), (3, 39), (2, 30)]:
+        expected = 0.0
+        for m in np.flatnonzero(received[k]):
+            offset = particles[k, n, :2] - poses[k // per, m]  # receiver -> antenna, reversed
+            r = math.hypot(*offset)
+            e_r = -offset / r  # from the antenna to the receiver
+            axis = np.array([math.cos(particles[k, n, 2]), math.sin(particles[k, n, 2])])
+            mu = 1000.0 / r**3 * (3.0 * (axis @ e_r) * e_r - axis)  # the 2-D dipole near field
+            mu = mu * min(1.0, max_snr / math.hypot(*mu))
+            expected += _quadrature_log_density(float(z[k // per, m, 0]), mu)
+        np.testing.assert_allclose(total[k, n], expected, rtol=1e-6, atol=1e-6)
+
+
+def test_summed_beacon_likelihood_is_the_numpy_masked_sum_bit_for_bit_when_pinned() -> None:
+    """In the pinned numerical environment (a fresh process) the compiled pass returns the bits
+    of ``log_likelihood`` masked and summed as NumPy sums it (so stored trials verify)."""
+    script = """
+import math, numpy as np
+from infoseek.envs.sensors import BeaconSensor
+rng = np.random.default_rng(9)
+for max_snr in (5.0, math.inf):
+    sensor = BeaconSensor(max_snr=max_snr)
+    for groups, per, m, n in ((1, 1, 120, 500), (2, 3, 4, 300), (3, 1, 1, 2)):
+        poses = rng.uniform(-5.0, 45.0, (groups, m, 2))
+        z = rng.uniform(0.0, math.pi, (groups, m, 1))
+        particles = rng.uniform(0.0, 40.0, (groups * per, n, 3))
+        particles[:, : n // 2, :2] = poses[0, 0] + rng.normal(0.0, 0.05, (groups * per, n // 2, 2))
+        particles[0, 0, :2] = poses[0, 0]  # a hypothesis at a receiver
+        received = rng.random((groups * per, m)) < 0.8
+        each = np.stack([sensor.log_likelihood(z[k // per], poses[k // per], particles[k])
+                         for k in range(groups * per)], axis=1)
+        expected = np.where(received.T[:, :, None], each, 0.0).sum(axis=0)
+        got = sensor.summed_log_likelihood(z, poses, particles, received)
+        assert np.array_equal(got, expected), (max_snr, groups, per, m, n)
+print("ok")
+"""
+    env = {**os.environ, **PINNED}
+    run = subprocess.run(
+        [sys.executable, "-c", script], env=env, capture_output=True, text=True, check=False
+    )
+    assert run.returncode == 0 and run.stdout.strip() == "ok", run.stderr[-2000:]
+
+
+def test_summed_beacon_likelihood_refuses_bad_arrays() -> None:
+    sensor = BeaconSensor(max_snr=5.0)
+    z, poses, particles, received = _beacon_case(np.random.default_rng(10))
+    with pytest.raises(ValueError, match="received must be"):
+        sensor.summed_log_likelihood(z, poses, particles, received[:, :2])
+    with pytest.raises(ValueError, match="multiple of G"):
+        sensor.summed_log_likelihood(z, poses, particles[:3], received[:3])
+    with pytest.raises(ValueError, match="z must have shape"):
+        sensor.summed_log_likelihood(z[0], poses[0], particles, received)
+    with pytest.raises(TypeError, match="received must be a bool array"):
+        summed_beacon_log_likelihood(z[..., 0], poses, particles, received.astype(int), (1, 1, 5))
+    assert sensor.summed_log_likelihood(z[:1], poses[:1], particles[:1, :1], received[:1]) is None

@@ -119,6 +119,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import NDArray
 from scipy.special import erf, erfc, owens_t
 
 from infoseek.envs.sensors.arrays import (
@@ -132,6 +133,7 @@ from infoseek.envs.sensors.arrays import (
     wrap_into,
 )
 from infoseek.envs.sensors.base import FloatArray, ObservationDomain
+from infoseek.envs.sensors.beacon_kernel import summed_beacon_log_likelihood
 
 __all__ = ["MIN_DISTANCE", "BeaconSensor"]
 
@@ -301,6 +303,51 @@ class BeaconSensor:
         mu_x, mu_y = self._scaled_field(poses, particles)
         cos_z, sin_z = np.cos(z), np.sin(z)  # (..., 1) broadcasting against (..., N)
         return _folded_log_density(mu_x * cos_z + mu_y * sin_z, mu_x * sin_z - mu_y * cos_z)
+
+    def summed_log_likelihood(
+        self,
+        z: FloatArray,
+        poses: FloatArray,
+        particles: FloatArray,
+        received: NDArray[np.bool_],
+    ) -> FloatArray | None:
+        """The filter's likelihood pass: for every belief, the sum of ``log p(z | theta)`` over
+        the readings it received (compiled, :mod:`infoseek.envs.sensors.beacon_kernel`; bit
+        for bit the masked sum of :meth:`log_likelihood` in the pinned numerical environment).
+
+        Args:
+            z: ``(G, M, 1)`` readings of ``G`` groups (an environment's agents, or one belief's
+                kept history).
+            poses: ``(G, M, 2)`` positions of the receivers that took them.
+            particles: ``(K, N, 3)`` particles of ``K`` beliefs; belief ``k`` belongs to
+                group ``k // (K / G)``.
+            received: ``(K, M)`` which of its group's readings each belief received.
+
+        Returns:
+            ``(K, N)`` summed log densities, or ``None`` for a single particle of a single
+            belief (NumPy then sums a contiguous column pairwise; the caller sums
+            :meth:`log_likelihood`).
+
+        Raises:
+            ValueError: If a sum is NaN or ``+inf``, or the shapes do not match.
+        """
+        owner = "BeaconSensor.summed_log_likelihood"
+        z = as_points(z, "z", 1, owner)
+        poses = as_points(poses, "poses", 2, owner)
+        if z.ndim != 3:
+            raise ValueError(f"{owner}: z must have shape (G, M, 1), got {z.shape}")
+        if np.shape(particles)[0] * np.shape(particles)[1] == 1:
+            return None
+        total, finite = summed_beacon_log_likelihood(
+            np.ascontiguousarray(z[..., 0]),
+            poses,
+            np.asarray(particles, dtype=np.float64),
+            np.asarray(received, dtype=np.bool_),
+            (self.moment, self.noise_std, self.max_snr),
+        )
+        if not finite:
+            raise ValueError(f"{owner}: a summed log-likelihood is NaN or +inf")
+        return total
 
     def kernel_parameters(
         self, poses: FloatArray, particles: FloatArray
