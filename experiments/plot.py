@@ -291,10 +291,9 @@ def plot_fig1_from_store(
     if not records:
         raise ValueError(f"nothing to plot: {directory} has no finished trials yet")
     config = manifest.get("config", {})
-    title = (
-        f"{config.get('env', '?')}: posterior mass within the localisation radius, "
-        f"{config.get('steps', '?')} steps"
-    )
+    settings = ", ".join(f"{k}={v}" for k, v in sorted(config.get("env_kwargs", {}).items()))
+    env = str(config.get("env", "?")) + (f" with {settings}\n" if settings else ": ")
+    title = f"{env}posterior mass within the localisation radius, {config.get('steps', '?')} steps"
     stem = Path(out_stem) if out_stem is not None else Path(directory) / "fig1"
     bounds = None
     if config.get("env") == "bearings_v0":

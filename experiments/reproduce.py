@@ -6,6 +6,9 @@ Part of the command line's top layer: each study lives in :mod:`infoseek.experim
 * ``fig1``: the paper's Fig. 1 (:mod:`~infoseek.experiments.studies.fig1`);
 * ``fig2``: the paper's Fig. 2, one episode (:mod:`~infoseek.experiments.studies.fig2`);
 * ``beacon``: the beacon Monte Carlo study (:mod:`~infoseek.experiments.studies.beacon`);
+* ``beacon_v1``: the same on ``beacon_v1``, paired trial by trial with ``beacon``, then why
+  pairwise-node does or does not beat single-node there (the decisions study and the switched
+  planners, :mod:`~infoseek.experiments.studies.beacon_mechanism`);
 * ``ablation``: the Claim A ablation with the decisions study
   (:mod:`~infoseek.experiments.studies.ablation`, :mod:`~infoseek.experiments.studies.decisions`);
 * ``grid_posterior``: the Fig. 1 store's episodes rerun beside an exact grid posterior
@@ -43,7 +46,7 @@ from infoseek.experiments.studies import (
     grid_posterior,
     learned,
 )
-from infoseek.experiments.studies.beacon import beacon_plan
+from infoseek.experiments.studies.beacon import DEFAULT_V1_TRIALS, beacon_plan, beacon_v1_plan
 from infoseek.experiments.studies.fig1 import fig1_plan
 from infoseek.experiments.studies.horizon import horizon_plans
 
@@ -54,6 +57,7 @@ STUDIES = (
     "fig1",
     "fig2",
     "beacon",
+    "beacon_v1",
     "ablation",
     "grid_posterior",
     "beacon_grid",
@@ -67,7 +71,8 @@ def add_reproduce_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "figure",
         choices=STUDIES,
-        help="which study: the paper's fig1 or fig2, the beacon Monte Carlo study, the Claim A "
+        help="which study: the paper's fig1 or fig2, the beacon Monte Carlo study (beacon_v0: "
+        "beacon; beacon_v1, with why Claim A comes out as it does: beacon_v1), the Claim A "
         "ablation, the filter against an exact grid posterior (bearings: grid_posterior; "
         "beacon: beacon_grid), the receding-horizon planner "
         "and the clairvoyant reference added to a Fig. 1 store, or policies that imitate the "
@@ -77,8 +82,8 @@ def add_reproduce_arguments(parser: argparse.ArgumentParser) -> None:
         "--trials",
         type=int,
         default=None,
-        help="trials per curve (fig1: default 1000; beacon: default 500; ablation: 100; "
-        "horizon: the committed counts)",
+        help="trials per curve (fig1: default 1000; beacon: default 500; beacon_v1: "
+        f"{DEFAULT_V1_TRIALS}; ablation: 100; horizon: the committed counts)",
     )
     parser.add_argument(
         "--steps", type=int, default=None, help="steps per trial (default: the env's episode)"
@@ -167,6 +172,9 @@ def _run_study(out: Path, args: argparse.Namespace) -> int:
         return _learned(out, args)
     if args.figure == "beacon":
         plan = beacon_plan(args.trials or 500, args.steps, args.particles, args.seed)
+    elif args.figure == "beacon_v1":
+        trials = args.trials or DEFAULT_V1_TRIALS
+        plan = beacon_v1_plan(trials, args.steps, args.particles, args.seed)
     else:
         plan = fig1_plan(args.trials or 1000, args.steps, args.particles, args.seed)
     store = out / "store"
