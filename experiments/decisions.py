@@ -4,11 +4,16 @@ The counterfactual of the decisions study (:mod:`infoseek.experiments.studies.de
 planner that runs pairwise-node only for its first ``k`` decisions keeps pairwise-node's gain
 over single-node, the gain is made by those first decisions. The Claim A ablation
 (:mod:`infoseek.experiments.studies.ablation`) runs it with ``k`` = 1 and 5, through the
-factories :func:`pairwise_first_step` and :func:`pairwise_first_5_steps`, usable as
-``infoseek bench --planner MODULE:FACTORY``.
+factories :func:`pairwise_first_step` and :func:`pairwise_first_5_steps`; the ``beacon_v1``
+study (:mod:`infoseek.experiments.studies.beacon_mechanism`) with ``k`` = 10 and 20, through
+:func:`pairwise_first_10_steps` and :func:`pairwise_first_20_steps` (on the beacon the two
+planners choose alike at step 0 and differ on 12-28 % of the later agent-steps in every phase
+up to step 39, so the switch is put after the first quarter and the first half of the 40-step
+episode). All are usable as ``infoseek bench --planner MODULE:FACTORY``.
 
-The factories' import paths are the planner labels of their stored trials
-(``experiments/results/ablation/default/store``), so they stay at this path.
+The factories' import paths are the planner labels of their stored trials (the stores
+``experiments/results/ablation/default/store`` and
+``experiments/results/beacon_v1/switched/store``), so they stay at this path.
 """
 
 from __future__ import annotations
@@ -18,8 +23,11 @@ from typing import Any
 from infoseek.experiments.policies import make_policy
 
 __all__ = [
+    "BEACON_SWITCHED_PLANNERS",
     "SWITCHED_PLANNERS",
     "PairwiseThenSingle",
+    "pairwise_first_10_steps",
+    "pairwise_first_20_steps",
     "pairwise_first_5_steps",
     "pairwise_first_step",
 ]
@@ -62,7 +70,16 @@ SWITCHED_PLANNERS: dict[str, str] = {
     "infoseek.experiments.decisions:pairwise_first_step": "pairwise at step 0, then single",
     "infoseek.experiments.decisions:pairwise_first_5_steps": "pairwise at steps 0-4, then single",
 }
-"""Planner labels of the switched planners -> their names in tables and figures."""
+"""Planner labels of the Claim A ablation's switched planners -> their names in tables and
+figures (the ablation runs every one of them)."""
+
+BEACON_SWITCHED_PLANNERS: dict[str, str] = {
+    "infoseek.experiments.decisions:pairwise_first_10_steps": "pairwise at steps 0-9, then single",
+    "infoseek.experiments.decisions:pairwise_first_20_steps": "pairwise at steps 0-19, then single",
+}
+"""Planner labels of the ``beacon_v1`` study's switched planners
+(:mod:`infoseek.experiments.studies.beacon_mechanism`) -> their names in tables; kept apart from
+:data:`SWITCHED_PLANNERS`, whose every planner the ablation runs."""
 
 
 def pairwise_first_step(env: Any, seed: int | None = None, **options: Any) -> PairwiseThenSingle:
@@ -73,3 +90,17 @@ def pairwise_first_step(env: Any, seed: int | None = None, **options: Any) -> Pa
 def pairwise_first_5_steps(env: Any, seed: int | None = None, **options: Any) -> PairwiseThenSingle:
     """:class:`PairwiseThenSingle` with five pairwise-node steps."""
     return PairwiseThenSingle(env, 5, seed=seed, **options)
+
+
+def pairwise_first_10_steps(
+    env: Any, seed: int | None = None, **options: Any
+) -> PairwiseThenSingle:
+    """:class:`PairwiseThenSingle` with ten pairwise-node steps."""
+    return PairwiseThenSingle(env, 10, seed=seed, **options)
+
+
+def pairwise_first_20_steps(
+    env: Any, seed: int | None = None, **options: Any
+) -> PairwiseThenSingle:
+    """:class:`PairwiseThenSingle` with twenty pairwise-node steps."""
+    return PairwiseThenSingle(env, 20, seed=seed, **options)
