@@ -313,7 +313,7 @@ def test_mechanism_section_pairs_partial_stores_by_trial(tmp_path: Path) -> None
         for against in ("single", "pairwise"):
             assert _expected_row(name, against, times[label], times[against]) in text
     assert format_decisions(rows, BEACON_DECISIONS) in text
-    assert "n_v = 4: 0 % at step 0, 12-22 % by phase afterwards" in text
+    assert "differ: 0 % at step 0, 12-22 % in each later phase (n_v = 4)." in text
     assert "| pairwise at steps 0-19, then single | single | 7 |" in text  # trials 3-9
     p = stats.wilcoxon(
         *(np.array([times[g][k] for k in range(12)]) for g in ("single", "pairwise")),

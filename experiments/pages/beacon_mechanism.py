@@ -118,49 +118,44 @@ def _decisions_text(rows: Sequence[DecisionRow]) -> str:
     """What the decision table shows, in numbers."""
     parts = []
     for n_agents in sorted({r.n_agents for r in rows}):
-        mine = [r for r in rows if r.n_agents == n_agents]
-        first = [r for r in mine if r.start == 0]
-        later = [100 * r.differ for r in mine if r.start > 0]
-        text = f"n_v = {n_agents}: "
-        if first:
-            text += f"{100 * first[0].differ:.0f} % at step 0"
+        first = [100 * r.differ for r in rows if r.n_agents == n_agents and r.start == 0]
+        later = [100 * r.differ for r in rows if r.n_agents == n_agents and r.start > 0]
+        cells = [f"{first[0]:.0f} % at step 0"] if first else []
         if later:
-            text += ", " if first else ""
-            text += f"{min(later):.0f}-{max(later):.0f} % by phase afterwards"
-        parts.append(text)
+            cells.append(f"{min(later):.0f}-{max(later):.0f} % in each later phase")
+        parts.append(f"{', '.join(cells)} (n_v = {n_agents})")
     trials = ", ".join(str(t) for t in sorted({r.trials for r in rows if r.start == 0}))
     return (
         f"Along pairwise-node's episodes ({trials} per fleet size; decision trial `k` is the "
         "study's pairwise-node trial `k`), a single-node planner is asked for its choice in the "
         "same state; a choice differs when the commanded accelerations are more than "
         f"{BEACON_DECISIONS.threshold:g} {BEACON_DECISIONS.unit} apart on an axis (10 % of the "
-        "per-axis range). The choices differ on " + "; ".join(parts) + " of the agent-steps:"
+        "per-axis range). Agent-steps on which the choices differ: " + "; ".join(parts) + "."
     )
 
 
 def _verdict(rows: Sequence[tuple[str, str, PairedTtl | None]]) -> str:
-    """Which planners localise sooner than their reference at ``_ALPHA`` (one-sided)."""
+    """The rows whose tests reject at ``_ALPHA``: planner sooner (one-sided), planner later
+    (two-sided, negative difference)."""
+
+    def listed(selected: list[str]) -> str:
+        return "; ".join(selected) if selected else "none"
+
     sooner = [
-        f"{_name(label)} than {reference}"
+        f"{_name(label)} against {reference}"
         for label, reference, c in rows
         if c is not None and c.p_sooner < _ALPHA
     ]
     later = [
-        f"{_name(label)} than {reference}"
+        f"{_name(label)} against {reference}"
         for label, reference, c in rows
         if c is not None and c.p_two_sided < _ALPHA and c.gain < 0
     ]
-    text = (
-        f"At alpha = {_ALPHA:g}, "
-        + ("sooner (one-sided): " + "; ".join(sooner) if sooner else "no row localises sooner")
-        + (
-            "; later (two-sided): " + "; ".join(later)
-            if later
-            else "; no row localises later (two-sided)"
-        )
-        + "."
+    return (
+        f"Rows where the planner localises sooner at alpha = {_ALPHA:g} (one-sided p): "
+        f"{listed(sooner)}. Rows where it localises later (two-sided p < {_ALPHA:g}, negative "
+        f"difference): {listed(later)}."
     )
-    return text
 
 
 def mechanism_lines(out: Path, main_store: Path) -> list[str]:
