@@ -24,6 +24,7 @@ from infoseek.experiments.policies import make_policy
 
 __all__ = [
     "BEACON_SWITCHED_PLANNERS",
+    "PAIRWISE_STEPS",
     "SWITCHED_PLANNERS",
     "PairwiseThenSingle",
     "pairwise_first_10_steps",
@@ -80,6 +81,14 @@ BEACON_SWITCHED_PLANNERS: dict[str, str] = {
 """Planner labels of the ``beacon_v1`` study's switched planners
 (:mod:`infoseek.experiments.studies.beacon_mechanism`) -> their names in tables; kept apart from
 :data:`SWITCHED_PLANNERS`, whose every planner the ablation runs."""
+
+PAIRWISE_STEPS: dict[str, int] = {
+    "infoseek.experiments.decisions:pairwise_first_step": 1,
+    "infoseek.experiments.decisions:pairwise_first_5_steps": 5,
+    "infoseek.experiments.decisions:pairwise_first_10_steps": 10,
+    "infoseek.experiments.decisions:pairwise_first_20_steps": 20,
+}
+"""Planner label of every switched planner -> its pairwise-node steps ``k``."""
 
 
 def pairwise_first_step(env: Any, seed: int | None = None, **options: Any) -> PairwiseThenSingle:

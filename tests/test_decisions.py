@@ -23,6 +23,7 @@ from infoseek.experiments.decision_differences import (
 )
 from infoseek.experiments.decisions import (
     BEACON_SWITCHED_PLANNERS,
+    PAIRWISE_STEPS,
     SWITCHED_PLANNERS,
     PairwiseThenSingle,
     pairwise_first_10_steps,
@@ -200,6 +201,7 @@ def test_beacon_switched_factories(factory: Any, steps: int) -> None:
     label = f"infoseek.experiments.decisions:{factory.__name__}"
     assert label in BEACON_SWITCHED_PLANNERS
     assert label not in SWITCHED_PLANNERS  # the ablation runs every one of those
+    assert PAIRWISE_STEPS[label] == steps
     assert (label, 4) in SWITCHED_GROUPS
     assert import_object(label, "planner") is factory
 
@@ -248,21 +250,29 @@ def test_reproduce_resumes_by_fleet_size(tmp_path: Path, monkeypatch: pytest.Mon
         reproduce_beacon_mechanism(tmp_path, decision_trials=4, switched_trials=5, workers=1)
 
 
-STEPS = 6
+STEPS = 24
 STORE_CONFIG = {"env": "beacon_v0", "env_kwargs": V1_KWARGS, "steps": STEPS, "seed": 0}
 FIRST_10, FIRST_20 = BEACON_SWITCHED_PLANNERS
 
 
-def _write_store(directory: Path, groups: dict[str, range], rng: np.random.Generator) -> dict:
-    """A store of ``n_agents = 4`` trials with random mass series; returns ``{planner: {trial:
-    time to localise}}`` computed here (first step with mass >= 0.9, else ``STEPS``)."""
-    times: dict[str, dict[int, float]] = {}
+def _write_store(
+    directory: Path,
+    groups: dict[str, range],
+    rng: np.random.Generator,
+    masses: dict[tuple[str, int], np.ndarray] | None = None,
+) -> dict:
+    """A store of ``n_agents = 4`` trials with random mass series (``masses[planner, trial]``
+    where given); returns ``{planner: {trial: time to localise}}`` computed here (first step
+    with mass >= 0.9, else ``STEPS``) and ``{planner: {trial: mass}}`` under ``"mass"``."""
+    times: dict[str, dict[int, Any]] = {}
     with ResultsStore(directory, {**STORE_CONFIG, "version": "t"}) as store:
         for planner, trials in groups.items():
             for trial in trials:
-                mass = rng.uniform(0.0, 1.0, STEPS + 1)
+                mass = rng.uniform(0.0, 1.0, STEPS + 1).astype(np.float32).astype(float)
+                mass = (masses or {}).get((planner, trial), mass)
                 hits = [step for step, value in enumerate(mass) if value >= 0.9]
                 times.setdefault(planner, {})[trial] = float(hits[0] if hits else STEPS)
+                times.setdefault("mass", {})[planner, trial] = mass
                 store.append(
                     {
                         "key": trial_key(planner, 4, trial),
@@ -296,8 +306,15 @@ def test_mechanism_section_pairs_partial_stores_by_trial(tmp_path: Path) -> None
     rng = np.random.default_rng(2)
     main_store, out = tmp_path / "store", tmp_path / "out"
     times = _write_store(main_store, {"single": range(12), "pairwise": range(20)}, rng)
+    pairwise_mass = times.pop("mass")
+    prefix = np.concatenate([pairwise_mass["pairwise", 1][:11], np.full(STEPS - 10, 0.5)])
+    copied = {
+        (FIRST_10, 0): pairwise_mass["pairwise", 0],
+        (FIRST_10, 1): prefix,  # pairwise-node's through step 10 only
+        (FIRST_20, 4): pairwise_mass["pairwise", 4],
+    }
     times |= _write_store(
-        out / "switched" / "store", {FIRST_10: range(15), FIRST_20: range(3, 10)}, rng
+        out / "switched" / "store", {FIRST_10: range(15), FIRST_20: range(3, 10)}, rng, copied
     )
     rows = [
         DecisionRow(4, 0, 1, 30, 0.0, 0.0, 0.0),
@@ -321,5 +338,10 @@ def test_mechanism_section_pairs_partial_stores_by_trial(tmp_path: Path) -> None
     ).pvalue
     heading = "beats" if p < 0.05 else "does not beat"
     assert text.startswith(f"## Why pairwise-node {heading} single-node on `beacon_v1`")
+    assert (
+        "(pairwise at steps 0-9, then single: through step 10 in 2 of 15 paired trials, over the "
+        "whole episode in 1; pairwise at steps 0-19, then single: through step 20 in 1 of 7 "
+        "paired trials, over the whole episode in 1)." in text
+    )
     with pytest.raises(ValueError, match="switched/store"):
         mechanism_lines(tmp_path / "nothing", main_store)

@@ -7,7 +7,9 @@ be drawn while the study's store is still being written. The response is the tim
 (agent 0's mass within the localisation radius reaches 0.9, censored at the episode length);
 each row gives both means, the mean paired difference reference - planner with its standard
 error (positive: the planner localises sooner), the one-sided Wilcoxon signed-rank p-value
-(planner sooner) and the two-sided one.
+(planner sooner) and the two-sided one. A last sentence counts the trials in which a switched
+planner's agent-0 mass series is pairwise-node's, through its ``k`` pairwise-node steps and over
+the whole episode.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from infoseek.experiments.decision_differences import (
     format_decisions,
     read_decisions,
 )
-from infoseek.experiments.decisions import BEACON_SWITCHED_PLANNERS
+from infoseek.experiments.decisions import BEACON_SWITCHED_PLANNERS, PAIRWISE_STEPS
 from infoseek.experiments.store import read_manifest
 from infoseek.experiments.studies.beacon_mechanism import BEACON_DECISIONS, SWITCHED_GROUPS
 
@@ -158,6 +160,27 @@ def _verdict(rows: Sequence[tuple[str, str, PairedTtl | None]]) -> str:
     )
 
 
+def _same_path_text(trials: Sequence[TrialView], planners: Sequence[str]) -> str:
+    """How often each switched planner's agent-0 mass series is pairwise-node's, through step
+    ``k`` and over the whole episode, on the trials both hold."""
+    pairwise = {t.trial: t.mass_agent0 for t in trials if (t.planner, t.n_agents) == _PAIRWISE}
+    parts = []
+    for label in planners:
+        k = PAIRWISE_STEPS[label]
+        mine = {t.trial: t.mass_agent0 for t in trials if (t.planner, t.n_agents) == (label, 4)}
+        common = sorted(set(mine) & set(pairwise))
+        prefix = sum(np.array_equal(mine[i][: k + 1], pairwise[i][: k + 1]) for i in common)
+        whole = sum(np.array_equal(mine[i], pairwise[i]) for i in common)
+        parts.append(
+            f"{_name(label)}: through step {k} in {prefix} of {len(common)} paired trials, "
+            f"over the whole episode in {whole}"
+        )
+    return (
+        "Agent 0's posterior-mass series of a switched planner equals pairwise-node's in the "
+        "same trial (" + "; ".join(parts) + ")."
+    )
+
+
 def mechanism_lines(out: Path, main_store: Path) -> list[str]:
     """The section's Markdown blocks (heading, paragraphs, tables), for
     :func:`~infoseek.experiments.pages.markdown.page_text`.
@@ -198,4 +221,5 @@ def mechanism_lines(out: Path, main_store: Path) -> list[str]:
         "`+-` one standard error of the paired mean; Wilcoxon signed-rank tests):",
         _comparison_table(rows),
         _verdict(rows),
+        _same_path_text(trials, planners),
     ]
