@@ -24,7 +24,7 @@ from __future__ import annotations
 import os
 import re
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -109,8 +109,10 @@ class BenchPlan:
         steps: int | None = None,
         particles: int | None = None,
         seed: int = 0,
+        settings: Mapping[str, Any] | None = None,
     ) -> BenchPlan:
-        """A study's plan: ``env`` with its defaults except the particles per belief.
+        """A study's plan: ``env`` with its defaults except ``settings`` and the particles per
+        belief.
 
         Args:
             env: Environment id.
@@ -119,8 +121,12 @@ class BenchPlan:
             steps: Episode length (``None``: the environment's).
             particles: Particles per belief (``None``: the environment's).
             seed: Root seed.
+            settings: Further environment keywords (e.g. ``beacon_v1``'s filter settings on
+                ``beacon_v0``).
         """
-        env_kwargs: dict[str, Any] = {} if particles is None else {"n_particles": particles}
+        env_kwargs: dict[str, Any] = dict(settings or {})
+        if particles is not None:
+            env_kwargs["n_particles"] = particles
         return cls(
             env=env,
             env_kwargs=env_kwargs,

@@ -22,6 +22,7 @@ from typing import Any
 from infoseek.experiments.store import jsonable
 
 __all__ = [
+    "changed_settings",
     "check_env_id",
     "default_steps",
     "env_defaults",
@@ -142,3 +143,20 @@ def default_steps(env: str, env_kwargs: Mapping[str, Any]) -> int:
         return int(instance.unwrapped.config.max_cycles)
     finally:
         instance.close()
+
+
+def changed_settings(env: str, base: str) -> dict[str, Any]:
+    """The registered keyword arguments of ``env`` that differ from ``base``'s (less the
+    environment's name), sorted by name: the settings that make ``base`` into ``env`` when the
+    two share their code (``beacon_v1`` from ``beacon_v0``)."""
+    from infoseek.envs.registration import registry
+
+    for name in (env, base):
+        if name not in registry:
+            raise ValueError(f"unknown environment {name!r}; expected one of {env_ids()}")
+    mine, theirs = registry[env].kwargs, registry[base].kwargs
+    return {
+        key: value
+        for key, value in sorted(mine.items())
+        if key != "name" and theirs.get(key) != value
+    }

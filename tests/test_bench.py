@@ -764,3 +764,20 @@ def test_the_committed_rl_bench_resumes_and_verifies_from_another_checkout(
     verify = ["verify", str(copy / "bench_20_steps"), "--trials", "1", "--group", group]
     assert main([*verify, "--workers", "1", "--no-progress"]) == 0
     assert "1 stored trial(s) rerun: 1 reproduced exactly" in capsys.readouterr().out
+
+
+def test_changed_settings_turn_the_base_env_into_the_other() -> None:
+    """``changed_settings`` gives exactly the registered keywords that differ, and a study plan
+    with them is the other environment's defaults on the base environment's code."""
+    from infoseek.envs.registration import registry
+    from infoseek.experiments.environments import changed_settings
+
+    settings = changed_settings("beacon_v1", "beacon_v0")
+    assert settings == {"resample_threshold": 0.5, "tempering_ess": 0.5}
+    v0, v1 = registry["beacon_v0"].kwargs, registry["beacon_v1"].kwargs
+    assert {**v0, **settings, "name": v1["name"]} == v1
+    assert changed_settings("beacon_v0", "beacon_v0") == {}
+    with pytest.raises(ValueError, match="unknown environment 'beacon_v9'"):
+        changed_settings("beacon_v9", "beacon_v0")
+    plan = BenchPlan.for_study("beacon_v0", [("single", 4)], 3, particles=100, settings=settings)
+    assert plan.config()["env_kwargs"] == {**settings, "n_particles": 100}

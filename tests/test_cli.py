@@ -192,6 +192,34 @@ def test_reproduce_beacon_smoke(tmp_path: Path, capsys: pytest.CaptureFixture[st
     assert (tmp_path / "beacon.png").exists() and (tmp_path / "beacon.svg").exists()
 
 
+def test_reproduce_beacon_v1_smoke(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The beacon_v1 study runs beacon_v0 with beacon_v1's two filter settings (so its trials
+    pair with the beacon study's), then the decisions study and the switched planners with the
+    same steps and particles, and writes its page."""
+    args = ["reproduce", "beacon_v1", "--trials", "2", "--steps", "2", "--particles", "100"]
+    page = tmp_path / "page.md"
+    out = tmp_path / "beacon_v1"
+    assert main([*args, "--workers", "1", "--out", str(out), "--page", str(page)]) == 0
+    config = read_manifest(out / "store")["config"]
+    assert config["env"] == "beacon_v0" and config["steps"] == 2
+    assert config["env_kwargs"] == {
+        "n_particles": 100,
+        "resample_threshold": 0.5,
+        "tempering_ess": 0.5,
+    }
+    assert len(read_records(out / "store")) == 12
+    switched = read_manifest(out / "switched" / "store")["config"]
+    assert switched == config
+    assert sorted({r.planner for r in read_records(out / "switched" / "store")}) == [
+        "infoseek.experiments.decisions:pairwise_first_10_steps",
+        "infoseek.experiments.decisions:pairwise_first_20_steps",
+    ]
+    decisions = json.loads((out / "decisions.json").read_text())
+    assert {row["n_agents"] for row in decisions["rows"]} == {2, 3, 4}
+    text = page.read_text()
+    assert "# Beacon Monte Carlo on beacon_v1" in text and "against beacon_v0" not in text
+
+
 def test_reproduce_fig2_smoke(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     args = ["reproduce", "fig2", "--steps", "2", "--particles", "100", "--out", str(tmp_path)]
     assert main(args) == 0

@@ -223,7 +223,7 @@ def test_reproduce_resumes_by_fleet_size(tmp_path: Path, monkeypatch: pytest.Mon
     ran: list[int] = []
     benched: list[tuple[Any, Path]] = []
 
-    def rows(n_agents: int, trials: int, workers: int) -> list[DecisionRow]:
+    def rows(n_agents: int, trials: int, workers: int, setting: object) -> list[DecisionRow]:
         ran.append(n_agents)
         return [DecisionRow(n_agents, 0, 1, trials, 0.0, 0.0, 0.0)]
 

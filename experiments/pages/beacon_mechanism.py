@@ -89,9 +89,20 @@ def _name(label: str) -> str:
 def _comparison_rows(
     ttl: dict[tuple[str, int], dict[int, float]], planners: Sequence[str]
 ) -> list[tuple[str, str, PairedTtl | None]]:
-    """``(planner, reference, comparison)``: pairwise-node against single-node, then every
-    switched planner against single-node and against pairwise-node."""
+    """``(planner, reference, comparison)``: pairwise-node against single-node (on every
+    paired trial, then on the switched planners' trials only), then every switched planner
+    against single-node and against pairwise-node."""
     rows = [("pairwise", "single", paired_ttl(ttl[_PAIRWISE], ttl[_SINGLE]))]
+    if planners:
+        shared = set.intersection(*(set(ttl[label, 4]) for label in planners))
+        on_shared = {k: v for k, v in ttl[_PAIRWISE].items() if k in shared}
+        rows.append(
+            (
+                "pairwise",
+                "single (the switched planners' trials)",
+                paired_ttl(on_shared, ttl[_SINGLE]),
+            )
+        )
     for label in planners:
         for reference in (_SINGLE, _PAIRWISE):
             rows.append((label, reference[0], paired_ttl(ttl[label, 4], ttl[reference])))
@@ -193,7 +204,7 @@ def mechanism_lines(out: Path, main_store: Path) -> list[str]:
         ValueError: No ``decisions.json``, no switched store, or a store of another run
             configuration than the main store.
     """
-    decisions = read_decisions(out, BEACON_DECISIONS)
+    decisions = read_decisions(out)  # its episodes are the main store's (--steps, --particles)
     switched = out / "switched" / "store"
     if decisions is None or not (switched / "manifest.json").exists():
         raise ValueError(f"{out}: no decisions.json or no switched/store")

@@ -18,8 +18,9 @@ __all__ = ["FIG2_STEP", "distribution_section", "fig2_page"]
 
 #: The snapshot step whose mass the distribution section reports (the paper's last panel).
 FIG2_STEP = 20
-#: The beacon study's results directory, beside the Fig. 2 study's.
+#: The beacon studies' results directories, beside the Fig. 2 study's.
 BEACON_RESULTS = "beacon"
+BEACON_V1_RESULTS = "beacon_v1"
 
 _SETTINGS = (
     "Four quadrotors, the pairwise-node planner with its defaults (the `fourier` MI estimator "
@@ -44,54 +45,70 @@ _DEVIATIONS = (
     "* the beliefs' progressive correction is off for `beacon_v0` (`tempering_ess=0`): its "
     "earlier Metropolis moves treated the prior as locally flat, and with them this very "
     "episode formed a false fix far from the beacon. The moves now target the exact posterior "
-    "given every kept observation (`envs/belief.py`); the beacon has not been re-run with "
-    "them, so it keeps tempering off."
+    "given every kept observation (`envs/belief.py`), and `beacon_v1` turns them on (with "
+    "resampling only below half the particles); this figure stays on `beacon_v0`, the table "
+    "above gives both."
 )
 
 
 def distribution_section(beacon: Path) -> str:
     """How the drawn episode's step-20 mass compares with many seeded episodes of the same
-    planner and fleet: the pairwise-node ``n_v = 4`` group of the beacon study's store (every
-    trial run by the harness in the pinned numerical environment). Empty without that store."""
-    if not (beacon / "store").is_dir():
+    planner and fleet: the pairwise-node ``n_v = 4`` group of each beacon study's store (the
+    ``beacon`` study, ``beacon_v0``, and the ``beacon_v1`` study beside it; every trial run by
+    the harness in the pinned numerical environment). Empty without those stores."""
+    rows = []
+    for study, env in ((beacon, "beacon_v0"), (beacon.parent / BEACON_V1_RESULTS, "beacon_v1")):
+        masses = _step_masses(study / "store")
+        if masses.size == 0:
+            continue
+        q25, median, q75 = np.quantile(masses, [0.25, 0.5, 0.75])
+        rows.append(
+            [
+                f"[{env}]({study.name}.md) (`{display_path(study / 'store')}`)",
+                str(masses.size),
+                f"{masses.mean():.3f}",
+                f"{median:.3f} ({q25:.3f} - {q75:.3f})",
+                f"{np.mean(masses < 0.1):.0%}",
+                f"{np.mean(masses >= 0.9):.0%}",
+            ]
+        )
+    if not rows:
         return ""
-    masses = np.array(
-        [
-            float(view.mass_agent0[FIG2_STEP])
-            for view in read_trials(beacon / "store")
-            if (view.planner, view.n_agents) == ("pairwise", 4)
-            and view.mass_agent0.size > FIG2_STEP
-        ]
-    )
-    if masses.size == 0:
-        return ""
-    q25, median, q75 = np.quantile(masses, [0.25, 0.5, 0.75])
-    row = [
-        str(masses.size),
-        f"{masses.mean():.3f}",
-        f"{median:.3f} ({q25:.3f} - {q75:.3f})",
-        f"{np.mean(masses < 0.1):.0%}",
-        f"{np.mean(masses >= 0.9):.0%}",
-    ]
     return "\n\n".join(
         [
             f"## One episode among many\n\nOne episode's mass after step {FIG2_STEP} is not a "
             "stable number: a small change (another BLAS thread count, another seed) gives "
             "another trajectory, and a beacon episode's mass is near 0 or near 1. The "
             f"distribution of the mass after step {FIG2_STEP} over the seeded episodes of the "
-            f"pairwise-node planner with four quadrotors in the [beacon study](beacon.md) "
-            f"(`{display_path(beacon / 'store')}`, random beacon positions and orientations, "
-            "the pinned numerical environment) is the number to quote:",
+            "pairwise-node planner with four quadrotors in the beacon studies (random beacon "
+            "positions and orientations, the pinned numerical environment; the same episodes "
+            "in both, trial by trial) is the number to quote:",
             table(
                 [
+                    "study",
                     "episodes",
                     "mean mass",
                     "median (25th - 75th percentile)",
                     "below 0.1",
                     "at or above 0.9",
                 ],
-                [row],
+                rows,
             ),
+        ]
+    )
+
+
+def _step_masses(store: Path) -> np.ndarray:
+    """Agent 0's mass after :data:`FIG2_STEP` in the pairwise-node ``n_v = 4`` trials of
+    ``store`` (empty if there is no such store)."""
+    if not store.is_dir():
+        return np.zeros(0)
+    return np.array(
+        [
+            float(view.mass_agent0[FIG2_STEP])
+            for view in read_trials(store)
+            if (view.planner, view.n_agents) == ("pairwise", 4)
+            and view.mass_agent0.size > FIG2_STEP
         ]
     )
 

@@ -76,7 +76,8 @@ def paired_table(
     ``reference`` (one of them or another; ``None``: no paired column entries).
 
     Args:
-        stores: The stores, in row order.
+        stores: The stores, in row order (a store of several groups gives a row per group,
+            labelled with the group).
         reference: The directory of the store every other one is paired with.
         label_title: The title of the label column.
     """
@@ -89,7 +90,8 @@ def paired_table(
         commands.extend(bench_commands(store.path, config, provenance.groups))
         steps = int(config["steps"])
         trials = read_trials(store.path)
-        for group in summarise(trials, steps):
+        summaries = summarise(trials, steps)
+        for group in summaries:
             q25, median, q75 = group.ttl_quartiles
             key = (group.planner, group.n_agents)
             members = [t for t in trials if (t.planner, t.n_agents) == key]
@@ -101,7 +103,9 @@ def paired_table(
                 sooner = _percent_sooner(members, baseline, key, steps)
             rows.append(
                 [
-                    store.label,
+                    store.label
+                    if len(summaries) == 1
+                    else f"{store.label}: {group.planner}, n_v = {group.n_agents}",
                     str(group.trials),
                     f"{group.ttl_mean:.2f} ({q25:.0f} / {median:.0f} / {q75:.0f})",
                     f"{group.never} of {group.trials}",

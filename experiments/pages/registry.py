@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from infoseek.experiments.pages.ablation import ablation_page
-from infoseek.experiments.pages.beacon import beacon_page
+from infoseek.experiments.pages.beacon import beacon_page, beacon_v1_page
 from infoseek.experiments.pages.beacon_filter import beacon_filter_page
 from infoseek.experiments.pages.beacon_grid import beacon_grid_page
 from infoseek.experiments.pages.beacon_particles import beacon_particles_page
@@ -75,6 +75,7 @@ PAGES: dict[str, Page] = {
         Page("fig1", "fig1", fig1_page),
         Page("fig2", "fig2", fig2_page),
         Page("beacon", "beacon", beacon_page),
+        Page("beacon_v1", "beacon_v1", beacon_v1_page),
         Page("beacon_particles", "beacon_particles", beacon_particles_page),
         Page("beacon_filter", "beacon_filter", beacon_filter_page),
         Page("ablation", "ablation", ablation_page),

@@ -16,11 +16,10 @@ whether pairwise beats single (Claim A) and whether larger fleets localise faste
 
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import Any
 
-from infoseek.envs.registration import registry
 from infoseek.experiments.bench import BenchPlan
+from infoseek.experiments.environments import changed_settings
 
 __all__ = ["BEACON_ENV", "BEACON_GROUPS", "BEACON_V1_SETTINGS", "beacon_plan", "beacon_v1_plan"]
 
@@ -37,13 +36,8 @@ BEACON_GROUPS: tuple[tuple[str, int], ...] = (
 DEFAULT_TRIALS = 500
 #: Trials per curve of the ``beacon_v1`` study.
 DEFAULT_V1_TRIALS = 1000
-#: ``beacon_v1``'s settings that differ from ``beacon_v0``'s (its registered keywords, less
-#: the environment's name).
-BEACON_V1_SETTINGS: dict[str, Any] = {
-    key: value
-    for key, value in sorted(registry["beacon_v1"].kwargs.items())
-    if key != "name" and registry["beacon_v0"].kwargs.get(key) != value
-}
+#: ``beacon_v1``'s settings that differ from ``beacon_v0``'s (its registered keywords).
+BEACON_V1_SETTINGS: dict[str, Any] = changed_settings("beacon_v1", "beacon_v0")
 
 
 def beacon_plan(
@@ -64,5 +58,6 @@ def beacon_v1_plan(
 ) -> BenchPlan:
     """The plan of the study on ``beacon_v1``: :func:`beacon_plan` with
     :data:`BEACON_V1_SETTINGS` (module docstring)."""
-    plan = beacon_plan(trials, steps, particles, seed)
-    return replace(plan, env_kwargs={**BEACON_V1_SETTINGS, **plan.env_kwargs})
+    return BenchPlan.for_study(
+        BEACON_ENV, BEACON_GROUPS, trials, steps, particles, seed, BEACON_V1_SETTINGS
+    )

@@ -21,13 +21,13 @@ study): the decisions study and the switched planners on the beacon.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from functools import partial
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from infoseek.envs.registration import registry
 from infoseek.experiments.bench import BenchPlan, run_bench
 from infoseek.experiments.decision_differences import (
     DecisionRow,
@@ -38,7 +38,7 @@ from infoseek.experiments.decision_differences import (
     write_decisions,
 )
 from infoseek.experiments.decisions import BEACON_SWITCHED_PLANNERS
-from infoseek.experiments.environments import default_steps
+from infoseek.experiments.environments import changed_settings
 from infoseek.experiments.executors import spawn_pool
 
 __all__ = [
@@ -50,17 +50,14 @@ __all__ = [
     "SWITCHED_GROUPS",
     "beacon_decision_rows",
     "reproduce_beacon_mechanism",
+    "study_settings",
     "switched_plan",
 ]
 
 #: The environment id the trials run under (it enters the trial seeds).
 BEACON_ENV = "beacon_v0"
-#: ``beacon_v1``'s registered keywords that differ from ``beacon_v0``'s (less its name).
-BEACON_V1_KWARGS: dict[str, Any] = {
-    key: value
-    for key, value in sorted(registry["beacon_v1"].kwargs.items())
-    if key != "name" and registry["beacon_v0"].kwargs.get(key) != value
-}
+#: ``beacon_v1``'s registered keywords that differ from ``beacon_v0``'s.
+BEACON_V1_KWARGS: dict[str, Any] = changed_settings("beacon_v1", "beacon_v0")
 #: The decisions setting: accelerations more than 0.2 units/s^2 apart on an axis differ.
 BEACON_DECISIONS = DecisionSetting(
     env=BEACON_ENV,
@@ -83,30 +80,45 @@ SWITCHED_GROUPS: tuple[tuple[str, int], ...] = tuple(
 )
 
 
-def switched_plan(trials: int = DEFAULT_SWITCHED_TRIALS, seed: int = 0) -> BenchPlan:
+def study_settings(steps: int | None = None, particles: int | None = None) -> dict[str, Any]:
+    """The environment keywords of the study: :data:`BEACON_V1_KWARGS`, with the episode
+    length and the particles per belief where given (``None``: the environment's)."""
+    settings: dict[str, Any] = dict(BEACON_V1_KWARGS)
+    if particles is not None:
+        settings["n_particles"] = particles
+    if steps is not None:
+        settings["max_cycles"] = steps
+    return settings
+
+
+def switched_plan(
+    trials: int = DEFAULT_SWITCHED_TRIALS,
+    seed: int = 0,
+    steps: int | None = None,
+    particles: int | None = None,
+) -> BenchPlan:
     """The switched planners' bench plan (module docstring)."""
-    return BenchPlan(
-        env=BEACON_ENV,
-        env_kwargs=dict(BEACON_V1_KWARGS),
-        steps=default_steps(BEACON_ENV, BEACON_V1_KWARGS),
-        seed=seed,
-        groups=list(SWITCHED_GROUPS),
-        trials=trials,
+    return BenchPlan.for_study(
+        BEACON_ENV, SWITCHED_GROUPS, trials, steps, particles, seed, BEACON_V1_KWARGS
     )
 
 
 def beacon_decision_rows(
-    n_agents: int, trials: int, workers: int = 1, seed: int = 0
+    n_agents: int,
+    trials: int,
+    workers: int = 1,
+    seed: int = 0,
+    setting: DecisionSetting = BEACON_DECISIONS,
 ) -> list[DecisionRow]:
     """The decision rows of one fleet size (``trials`` pairwise episodes, on ``workers``
     processes)."""
-    run = partial(trial_differences, n_agents, seed=seed, setting=BEACON_DECISIONS)
+    run = partial(trial_differences, n_agents, seed=seed, setting=setting)
     if workers == 1:
         per_trial: list[np.ndarray] = [run(k) for k in range(trials)]
     else:
         with spawn_pool(workers) as pool:
             per_trial = list(pool.map(run, range(trials)))
-    return summarise_differences(n_agents, per_trial, BEACON_DECISIONS)
+    return summarise_differences(n_agents, per_trial, setting)
 
 
 def reproduce_beacon_mechanism(
@@ -116,6 +128,8 @@ def reproduce_beacon_mechanism(
     switched_trials: int,
     workers: int,
     fleets: Sequence[int] = DECISION_FLEETS,
+    steps: int | None = None,
+    particles: int | None = None,
 ) -> list[Path]:
     """Run what is missing of the study into ``out`` (module docstring): the decision rows of
     every fleet size in ``fleets``, largest first (``OUT/decisions.json`` and ``.md``, rows by
@@ -128,6 +142,8 @@ def reproduce_beacon_mechanism(
         switched_trials: Trials per switched planner.
         workers: Worker processes (1: everything in this process).
         fleets: Fleet sizes of the decisions study.
+        steps: Episode length (``None``: the environment's, as the study's store).
+        particles: Particles per belief (``None``: the environment's).
 
     Returns:
         The decisions files and the store's directory.
@@ -138,17 +154,18 @@ def reproduce_beacon_mechanism(
     """
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
-    plan = switched_plan(switched_trials)  # checks the trial count before anything runs
-    rows = read_decisions(out, BEACON_DECISIONS) or []
+    plan = switched_plan(switched_trials, 0, steps, particles)  # checks the trial count first
+    setting = replace(BEACON_DECISIONS, env_kwargs=study_settings(steps, particles))
+    rows = read_decisions(out, setting) or []
     _check_stored_trials(rows, decision_trials)
     paths: list[Path] = []
     for n_agents in sorted(fleets, reverse=True):  # n_v = 4, Claim A's, first
         if any(row.n_agents == n_agents for row in rows):
             continue
         print(f"decisions: single-node's choices along pairwise-node episodes, n_v = {n_agents}")
-        rows += beacon_decision_rows(n_agents, decision_trials, workers)
+        rows += beacon_decision_rows(n_agents, decision_trials, workers, setting=setting)
         rows.sort(key=lambda row: (row.n_agents, row.start))
-        paths = write_decisions(out, rows, BEACON_DECISIONS)
+        paths = write_decisions(out, rows, setting)
     if not paths:
         paths = [out / "decisions.md", out / "decisions.json"]
     store = out / "switched" / "store"
