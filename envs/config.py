@@ -12,7 +12,7 @@ from __future__ import annotations
 import inspect
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, TypeVar
 
 import gymnasium
 import numpy as np
@@ -27,6 +27,7 @@ from infoseek.envs.vehicles import make_vehicle
 from infoseek.envs.vehicles.base import Vehicle
 
 FloatArray = NDArray[np.float64]
+_Choice = TypeVar("_Choice")
 
 ACTION_TYPES = ("continuous", "discrete")
 #: Fewest particles per belief: fewer cannot represent the uniform prior (a 40 x 40 domain
@@ -115,6 +116,65 @@ def _check_kwargs(value: object, name: str) -> dict[str, Any]:
     if not isinstance(value, Mapping):
         raise TypeError(f"{name} must be a dict of keyword arguments or None, got {value!r}")
     return dict(value)
+
+
+def _check_flag(value: object, name: str, expected: str = "True or False") -> bool:
+    """``value`` (a Python or numpy bool) as a bool; a ``TypeError`` naming ``name`` and saying
+    what is ``expected`` otherwise."""
+    if not isinstance(value, bool | np.bool_):
+        raise TypeError(f"{name} must be {expected}, got {value!r}")
+    return bool(value)
+
+
+def _check_choice(value: _Choice, name: str, choices: tuple[object, ...]) -> _Choice:
+    """``value`` if it is one of ``choices``; a ``ValueError`` naming ``name`` otherwise."""
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {choices}, got {value!r}")
+    return value
+
+
+def _check_belief_grid(value: object) -> tuple[int, int]:
+    """The ``(gx, gy)`` belief-mass grid: two integers >= 1."""
+    if (
+        not isinstance(value, Sequence)
+        or len(value) != 2
+        or any(isinstance(g, bool) or not isinstance(g, int | np.integer) for g in value)
+        or min(value) < 1
+    ):
+        raise ValueError(f"belief_grid must be two integers >= 1, got {value!r}")
+    return (int(value[0]), int(value[1]))
+
+
+def _check_tempering_ess(value: float | None, motion: TargetMotion) -> float:
+    """The progressive-correction floor in ``[0, 1)``; ``None`` is the default for ``motion``."""
+    if value is None:
+        value = default_tempering_ess(motion)
+    tempering_ess = _check_float(value, "tempering_ess", low=0.0, high=1.0)
+    if tempering_ess >= 1.0:
+        raise ValueError(f"tempering_ess must be in [0, 1), got {value!r}")
+    return tempering_ess
+
+
+def _filter_model(sensor: Sensor, filter_max_snr: float | None) -> tuple[float | None, Sensor]:
+    """The checked noise floor and the likelihood model every belief update uses: ``sensor``
+    itself when the floor is ``None``, else its noise-floored view ``with_max_snr``."""
+    if filter_max_snr is None:
+        return None, sensor
+    max_snr = _check_float(filter_max_snr, "filter_max_snr", low=0.0, low_open=True)
+    if not callable(getattr(sensor, "with_max_snr", None)):
+        raise ValueError(
+            f"filter_max_snr needs a sensor that offers with_max_snr (e.g. 'beacon'); "
+            f"sensor {sensor.name!r} does not: use filter_max_snr=None"
+        )
+    return max_snr, sensor.with_max_snr(max_snr)  # type: ignore[attr-defined]
+
+
+def _control_grid(low: FloatArray, high: FloatArray, n_per_axis: int) -> FloatArray:
+    """``(k**c, c)`` controls: ``k = n_per_axis`` evenly spaced values from ``low`` to ``high``
+    on each of the ``c`` axes, every combination, the last axis varying fastest."""
+    axes = [np.linspace(lo, hi, n_per_axis) for lo, hi in zip(low, high, strict=True)]
+    grid = np.meshgrid(*axes, indexing="ij")
+    return np.stack([g.ravel() for g in grid], axis=-1)
 
 
 def read_only(array: np.ndarray) -> np.ndarray:
@@ -255,8 +315,32 @@ class SearchConfig:
             raise ValueError(
                 f"unknown configuration key(s) {sorted(unknown)}; valid keys are {valid}"
             )
+        # checked in this order, so that of several bad settings the first listed is reported
+        self._set_components(
+            sensor, sensor_kwargs, vehicle, vehicle_kwargs, target_motion, target_motion_kwargs
+        )
+        self._set_space(target_space, domain_size)
+        self._set_sizes(n_agents, n_particles, max_cycles, dt, min_separation, separation_penalty)
+        self._set_filter(resample_threshold, roughening, tempering_ess, filter_max_snr)
+        self._set_localization(localization_radius, localization_mass, terminate_on_localization)
+        self._set_communication(comm_range, message_loss)
+        self._set_belief_summaries(entropy_bins, belief_grid, belief_moments)
+        self._set_reporting(render_mode, belief_in_infos, name)
+        self._set_agents(start_center, start_spacing, start_positions)
+        self._set_actions(action_type, n_discrete_actions)
+        self._build_spaces()
 
-        # ---- components
+    # ----------------------------------------------------------------------------- settings
+    def _set_components(
+        self,
+        sensor: str | Sensor,
+        sensor_kwargs: Mapping[str, Any] | None,
+        vehicle: str | Vehicle,
+        vehicle_kwargs: Mapping[str, Any] | None,
+        target_motion: str | TargetMotion,
+        target_motion_kwargs: Mapping[str, Any] | None,
+    ) -> None:
+        """The sensor, vehicle and target motion, built from their registries (or as given)."""
         self.sensor: Sensor = _named(
             "sensor", make_sensor, sensor, _check_kwargs(sensor_kwargs, "sensor_kwargs")
         )
@@ -269,6 +353,11 @@ class SearchConfig:
             target_motion,
             _check_kwargs(target_motion_kwargs, "target_motion_kwargs"),
         )
+
+    def _set_space(
+        self, target_space: TargetSpace | str | None, domain_size: tuple[float, float] | None
+    ) -> None:
+        """The target space, whose dimension must be the one the sensor observes."""
         self.space: TargetSpace = self._build_space(target_space, domain_size)
         if self.sensor.target_dim != self.space.dim:
             raise ValueError(
@@ -276,102 +365,107 @@ class SearchConfig:
                 f"targets of dim {self.sensor.target_dim}"
             )
 
-        # ---- scalars
+    def _set_sizes(
+        self,
+        n_agents: int,
+        n_particles: int,
+        max_cycles: int,
+        dt: float,
+        min_separation: float,
+        separation_penalty: float,
+    ) -> None:
+        """Vehicles, particles, episode length and time step; the separation rule (eq. 2)."""
         self.n_agents = _check_int(n_agents, "n_agents", 1)
         self.n_particles = _check_int(n_particles, "n_particles", MIN_PARTICLES)
         self._max_cycles = _check_int(max_cycles, "max_cycles", 1)
         self.dt = _check_float(dt, "dt", low=0.0, low_open=True)
         self.min_separation = _check_float(min_separation, "min_separation", low=0.0)
         self.separation_penalty = _check_float(separation_penalty, "separation_penalty", low=0.0)
+
+    def _set_filter(
+        self,
+        resample_threshold: float,
+        roughening: float,
+        tempering_ess: float | None,
+        filter_max_snr: float | None,
+    ) -> None:
+        """The particle filter's settings and the likelihood model its updates use."""
         self.resample_threshold = _check_float(
             resample_threshold, "resample_threshold", low=0.0, high=1.0
         )
         self.roughening = _check_float(roughening, "roughening", low=0.0)
-        if tempering_ess is None:
-            tempering_ess = default_tempering_ess(self.target_motion)
-        self.tempering_ess = _check_float(tempering_ess, "tempering_ess", low=0.0, high=1.0)
-        if self.tempering_ess >= 1.0:
-            raise ValueError(f"tempering_ess must be in [0, 1), got {tempering_ess!r}")
-        # the likelihood model every belief update uses: the sensor, or its noise-floored view
-        if filter_max_snr is None:
-            self.filter_max_snr: float | None = None
-            self.filter_sensor: Sensor = self.sensor
-        else:
-            self.filter_max_snr = _check_float(
-                filter_max_snr, "filter_max_snr", low=0.0, low_open=True
-            )
-            if not callable(getattr(self.sensor, "with_max_snr", None)):
-                raise ValueError(
-                    f"filter_max_snr needs a sensor that offers with_max_snr (e.g. 'beacon'); "
-                    f"sensor {self.sensor.name!r} does not: use filter_max_snr=None"
-                )
-            self.filter_sensor = self.sensor.with_max_snr(  # type: ignore[attr-defined]
-                self.filter_max_snr
-            )
+        self.tempering_ess = _check_tempering_ess(tempering_ess, self.target_motion)
+        self.filter_max_snr, self.filter_sensor = _filter_model(self.sensor, filter_max_snr)
+
+    def _set_localization(
+        self,
+        localization_radius: float,
+        localization_mass: float,
+        terminate_on_localization: bool,
+    ) -> None:
+        """The posterior-mass criterion of a localised belief, and whether it ends episodes."""
         self.localization_radius = _check_float(
             localization_radius, "localization_radius", low=0.0, low_open=True
         )
         self.localization_mass = _check_float(
             localization_mass, "localization_mass", low=0.0, high=1.0, low_open=True
         )
-        if not isinstance(terminate_on_localization, bool | np.bool_):
-            raise TypeError(
-                f"terminate_on_localization must be a bool, got {terminate_on_localization!r}"
-            )
-        self.terminate_on_localization = bool(terminate_on_localization)
+        self.terminate_on_localization = _check_flag(
+            terminate_on_localization, "terminate_on_localization", "a bool"
+        )
+
+    def _set_communication(self, comm_range: float, message_loss: float) -> None:
+        """How far observations are shared, and how often a message is lost."""
         self.comm_range = _check_float(comm_range, "comm_range", low=0.0, allow_inf=True)
         self.message_loss = _check_float(message_loss, "message_loss", low=0.0, high=1.0)
+
+    def _set_belief_summaries(
+        self,
+        entropy_bins: tuple[int, ...] | None,
+        belief_grid: tuple[int, int],
+        belief_moments: bool,
+    ) -> None:
+        """How beliefs are summarised: entropy histogram, observed mass grid and moments."""
         self.entropy_bins = _check_bins(entropy_bins, "entropy_bins")
-        if (
-            not isinstance(belief_grid, Sequence)
-            or len(belief_grid) != 2
-            or any(isinstance(g, bool) or not isinstance(g, int | np.integer) for g in belief_grid)
-            or min(belief_grid) < 1
-        ):
-            raise ValueError(f"belief_grid must be two integers >= 1, got {belief_grid!r}")
-        self.belief_grid = (int(belief_grid[0]), int(belief_grid[1]))
-        if not isinstance(belief_moments, bool | np.bool_):
-            raise TypeError(f"belief_moments must be True or False, got {belief_moments!r}")
-        self.belief_moments = bool(belief_moments)
-        if render_mode not in RENDER_MODES:
-            raise ValueError(f"render_mode must be one of {RENDER_MODES}, got {render_mode!r}")
-        self.render_mode = render_mode
-        if not isinstance(belief_in_infos, bool | np.bool_):
-            raise TypeError(f"belief_in_infos must be True or False, got {belief_in_infos!r}")
-        self.belief_in_infos = bool(belief_in_infos)
+        self.belief_grid = _check_belief_grid(belief_grid)
+        self.belief_moments = _check_flag(belief_moments, "belief_moments")
+
+    def _set_reporting(self, render_mode: str | None, belief_in_infos: bool, name: str) -> None:
+        """Rendering, what the infos carry and the environment's name."""
+        self.render_mode = _check_choice(render_mode, "render_mode", RENDER_MODES)
+        self.belief_in_infos = _check_flag(belief_in_infos, "belief_in_infos")
         if not isinstance(name, str) or not name:
             raise TypeError(f"name must be a non-empty string, got {name!r}")
         self.name = name
 
-        # ---- agents and start positions
+    def _set_agents(
+        self,
+        start_center: Sequence[float],
+        start_spacing: float | None,
+        start_positions: Sequence[Sequence[float]] | FloatArray | None,
+    ) -> None:
+        """The agents' names and indices, and their (read-only) start positions."""
         self.possible_agents = [f"vehicle_{i}" for i in range(self.n_agents)]
         self.agent_name_mapping = {agent: i for i, agent in enumerate(self.possible_agents)}
         self.start_positions = read_only(
             self._build_start_positions(start_center, start_spacing, start_positions)
         )
 
-        # ---- actions
-        if action_type not in ACTION_TYPES:
-            raise ValueError(f"action_type must be one of {ACTION_TYPES}, got {action_type!r}")
-        self.action_type = action_type
+    def _set_actions(self, action_type: str, n_discrete_actions: int) -> None:
+        """The action space: the vehicle's control box, or the grid of its discrete controls."""
+        self.action_type = _check_choice(action_type, "action_type", ACTION_TYPES)
         self.control_low = np.asarray(self.vehicle.control_low, dtype=np.float64)
         self.control_high = np.asarray(self.vehicle.control_high, dtype=np.float64)
         control_dim = int(self.vehicle.control_dim)
+        self.n_discrete_actions = _check_int(n_discrete_actions, "n_discrete_actions", 2)
         if action_type == "discrete":
-            self.n_discrete_actions = _check_int(n_discrete_actions, "n_discrete_actions", 2)
-            axes = [
-                np.linspace(lo, hi, self.n_discrete_actions)
-                for lo, hi in zip(self.control_low, self.control_high, strict=True)
-            ]
-            grid = np.meshgrid(*axes, indexing="ij")
             self.discrete_controls: FloatArray | None = read_only(
-                np.stack([g.ravel() for g in grid], axis=-1)
+                _control_grid(self.control_low, self.control_high, self.n_discrete_actions)
             )
             self.action_space: gymnasium.spaces.Space = gymnasium.spaces.Discrete(
                 len(self.discrete_controls)
             )
         else:
-            self.n_discrete_actions = _check_int(n_discrete_actions, "n_discrete_actions", 2)
             self.discrete_controls = None
             self.action_space = gymnasium.spaces.Box(
                 low=self.control_low.astype(np.float32),
@@ -379,9 +473,6 @@ class SearchConfig:
                 shape=(control_dim,),
                 dtype=np.float32,
             )
-
-        # ---- observations and centralised state
-        self._build_spaces()
 
     # ----------------------------------------------------------------------------- construction
     @classmethod
