@@ -563,16 +563,48 @@ def check_belief_settings(
         TypeError: ``motion`` is not a :class:`~infoseek.envs.targets.TargetMotion`.
         ValueError: A setting outside its range, naming it.
     """
+    motion = _check_motion(motion)
+    _check_resampling(resample_threshold, roughening, recovery_fraction)
+    tempering_ess = _check_tempering(tempering_ess, max_tempering_stages, motion)
+    bins = _check_entropy_bins(entropy_bins, space)
+    return {
+        "motion": motion,
+        "resample_threshold": float(resample_threshold),
+        "roughening": float(roughening),
+        "entropy_bins": bins,
+        "recovery_fraction": float(recovery_fraction),
+        "tempering_ess": float(tempering_ess),
+        "max_tempering_stages": int(max_tempering_stages),
+    }
+
+
+def _check_motion(motion: TargetMotion | None) -> TargetMotion:
+    """``motion``, a stationary target when ``None``."""
     if motion is None:
         motion = StationaryTarget()
     if not isinstance(motion, TargetMotion):
         raise TypeError(f"motion must be a TargetMotion, got {type(motion).__name__}")
+    return motion
+
+
+def _check_resampling(
+    resample_threshold: float, roughening: float, recovery_fraction: float
+) -> None:
+    """The resampling threshold in ``[0, 1]``, roughening ``>= 0`` and recovery fraction in
+    ``(0, 1]``, each finite."""
     if not (np.isfinite(resample_threshold) and 0.0 <= resample_threshold <= 1.0):
         raise ValueError(f"resample_threshold must be in [0, 1], got {resample_threshold!r}")
     if not (np.isfinite(roughening) and roughening >= 0.0):
         raise ValueError(f"roughening must be a finite float >= 0, got {roughening!r}")
     if not (np.isfinite(recovery_fraction) and 0.0 < recovery_fraction <= 1.0):
         raise ValueError(f"recovery_fraction must be in (0, 1], got {recovery_fraction!r}")
+
+
+def _check_tempering(
+    tempering_ess: float | None, max_tempering_stages: int, motion: TargetMotion
+) -> float:
+    """The progressive-correction floor (``None``: the default for ``motion``), in ``[0, 1)``
+    and 0 unless the target is stationary, and a stage cap ``>= 1``; returns the floor."""
     if tempering_ess is None:
         tempering_ess = default_tempering_ess(motion)
     if isinstance(tempering_ess, bool) or not (
@@ -593,22 +625,20 @@ def check_belief_settings(
         raise ValueError(
             f"max_tempering_stages must be an integer >= 1, got {max_tempering_stages!r}"
         )
-    bins: tuple[int, ...] | None = None
-    if entropy_bins is not None:
-        bins = tuple(entropy_bins)
-        if len(bins) != space.dim or not all(
-            isinstance(b, int | np.integer) and not isinstance(b, bool) and b >= 1 for b in bins
-        ):
-            raise ValueError(
-                f"entropy_bins must be {space.dim} positive integers, got {entropy_bins!r}"
-            )
-        bins = tuple(int(b) for b in bins)
-    return {
-        "motion": motion,
-        "resample_threshold": float(resample_threshold),
-        "roughening": float(roughening),
-        "entropy_bins": bins,
-        "recovery_fraction": float(recovery_fraction),
-        "tempering_ess": float(tempering_ess),
-        "max_tempering_stages": int(max_tempering_stages),
-    }
+    return tempering_ess
+
+
+def _check_entropy_bins(
+    entropy_bins: tuple[int, ...] | None, space: TargetSpace
+) -> tuple[int, ...] | None:
+    """``None``, or one positive integer per dimension of ``space`` (as Python ints)."""
+    if entropy_bins is None:
+        return None
+    bins = tuple(entropy_bins)
+    if len(bins) != space.dim or not all(
+        isinstance(b, int | np.integer) and not isinstance(b, bool) and b >= 1 for b in bins
+    ):
+        raise ValueError(
+            f"entropy_bins must be {space.dim} positive integers, got {entropy_bins!r}"
+        )
+    return tuple(int(b) for b in bins)

@@ -14,7 +14,13 @@ import pytest
 from scipy import stats
 
 import infoseek.envs
-from infoseek.envs.belief import BeliefUpdate, BeliefView, ParticleBelief
+from infoseek.envs.belief import (
+    DEFAULT_TEMPERING_ESS,
+    BeliefUpdate,
+    BeliefView,
+    ParticleBelief,
+    check_belief_settings,
+)
 from infoseek.envs.sensors import BeaconSensor, BearingSensor
 from infoseek.envs.sensors.base import ObservationDomain, Sensor
 from infoseek.envs.targets import (
@@ -765,3 +771,56 @@ def test_beacon_filter_noise_floor_is_an_inflated_noise_likelihood() -> None:
     assert env.unwrapped.config.filter_max_snr == 5.0
     with pytest.raises(ValueError, match="filter_max_snr"):
         infoseek.envs.make("bearings_v0", n_agents=2, filter_max_snr=5.0)
+
+
+def _settings(**changes: object) -> dict:
+    settings = {
+        "motion": None,
+        "resample_threshold": 1.0,
+        "roughening": 0.2,
+        "entropy_bins": None,
+        "recovery_fraction": 0.5,
+        "tempering_ess": None,
+        "max_tempering_stages": 20,
+        "space": PLANAR,
+    }
+    return check_belief_settings(**{**settings, **changes})
+
+
+def test_belief_settings_are_plain_python_values_with_defaults_by_motion() -> None:
+    settings = _settings(
+        resample_threshold=np.float32(0.5),
+        roughening=0,
+        entropy_bins=(np.int64(4), 5),
+        max_tempering_stages=np.int64(3),
+    )
+    assert isinstance(settings["motion"], StationaryTarget)
+    assert settings["tempering_ess"] == DEFAULT_TEMPERING_ESS
+    assert settings["entropy_bins"] == (4, 5) and all(
+        type(b) is int for b in settings["entropy_bins"]
+    )
+    assert type(settings["max_tempering_stages"]) is int
+    assert type(settings["resample_threshold"]) is float and type(settings["roughening"]) is float
+    walk = RandomWalkTarget(0.5)
+    moving = _settings(motion=walk)
+    assert moving["motion"] is walk and moving["tempering_ess"] == 0.0
+    assert _settings()["entropy_bins"] is None
+
+
+@pytest.mark.parametrize(
+    ("changes", "error", "named"),
+    [
+        ({"motion": "walk", "resample_threshold": 2.0}, TypeError, "motion"),
+        ({"resample_threshold": 2.0, "roughening": -1.0}, ValueError, "resample_threshold"),
+        ({"roughening": -1.0, "recovery_fraction": 0.0}, ValueError, "roughening"),
+        ({"recovery_fraction": 0.0, "tempering_ess": 1.0}, ValueError, "recovery_fraction"),
+        ({"tempering_ess": 1.0, "max_tempering_stages": 0}, ValueError, "tempering_ess"),
+        ({"max_tempering_stages": 0, "entropy_bins": (4,)}, ValueError, "max_tempering_stages"),
+        ({"entropy_bins": (4,)}, ValueError, "entropy_bins must be 2 positive integers"),
+    ],
+)
+def test_belief_settings_report_the_first_bad_one(
+    changes: dict, error: type[Exception], named: str
+) -> None:
+    with pytest.raises(error, match=f"^{named}"):
+        _settings(**changes)
