@@ -28,12 +28,16 @@ only when an environment renders.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from infoseek.envs.targets import TargetSpace
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 FloatArray = NDArray[np.float64]
 
@@ -54,6 +58,55 @@ SCALE_LENGTHS = (0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0)
 PARTICLES_LABEL = "particles (darker = heavier)"
 RADIUS_LABEL = "zoom: localisation radius around the estimate"
 SCALE_LABEL = "zoom: scale bar (length beside it)"
+
+
+def particle_colours(weights: FloatArray) -> FloatArray:
+    """Opaque grey RGBA colours of particles, darker for heavier weights.
+
+    Args:
+        weights: ``(N,)`` particle weights (non-negative).
+
+    Returns:
+        ``(N, 4)`` colours of grey level ``0.9 * (1 - w_k / max_k w_k)``: black for the
+        heaviest particle, light grey (0.9) for a weightless one; all 0.9 when every weight is 0.
+    """
+    w_max = float(np.max(weights)) if weights.size else 1.0
+    grey = 0.9 * (1.0 - weights / (w_max if w_max > 0 else 1.0))
+    return np.stack([grey, grey, grey, np.ones_like(grey)], axis=-1)
+
+
+def frame_title(prefix: str, step: int, mass: float | None, radius: float | None) -> str:
+    """The title of a frame: the step and, when known, the belief's posterior mass.
+
+    Args:
+        prefix: Title prefix (``""``: none).
+        step: Step counter.
+        mass: Posterior mass within ``radius`` of the estimate (``None``: not shown).
+        radius: The localisation radius (``None``: not named).
+
+    Returns:
+        ``"<prefix>  t = <step>"`` (or ``"t = <step>"``), followed by a line with the mass.
+    """
+    title = f"{prefix}  t = {step}" if prefix else f"t = {step}"
+    if mass is not None:
+        within = "" if radius is None else f" within {radius:g}"
+        title += f"\nposterior mass{within} of the estimate: {mass:.2f}"
+    return title
+
+
+def _new_figure(human: bool, size_inches: float, dpi: int) -> Figure:
+    """A square figure: pyplot's interactive one (``human``) or an off-screen Agg one."""
+    if human:
+        import matplotlib.pyplot as plt
+
+        plt.ion()
+        return plt.figure(figsize=(size_inches, size_inches), dpi=dpi)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(size_inches, size_inches), dpi=dpi)
+    FigureCanvasAgg(figure)
+    return figure
 
 
 def _palette(n: int) -> list[Any]:
@@ -106,23 +159,30 @@ class SearchRenderer:
         angle_dims = [k for k in range(2, space.dim) if space.periodic[k]]
         self._angle_dim: int | None = angle_dims[0] if angle_dims else None
         self._scale = float(np.max(self._high - self._low))
+        self.figure = _new_figure(human, size_inches, dpi)
+        self.axes = self._add_axes()
+        self._particles = self._particle_artist(self.axes, self._scale * 0.02)
+        self.trail_lines: list[Any] = []
+        self._colours: list[Any] = []
+        self._heads: Any = None
+        self.arrows: Any = None
+        (self._estimate,) = self.axes.plot([], [], **_estimate_style(12))
+        (self._target,) = self.axes.plot([], [], **_target_style(9))
+        self.title_artist = self.axes.set_title(title)
+        self.legend: Any = None
+        self.inset: Any = None
+        self._corner = INSET_CORNERS[0]
+        self._scale_bar: Any = None
+        self._fit_axes(np.empty((0, 2)))
 
+    # -- artists
+    def _add_axes(self) -> Axes:
+        """The main axes (equal aspect, labelled, room below for the legend), with the domain
+        box drawn."""
         from matplotlib.patches import Rectangle
 
-        if human:
-            import matplotlib.pyplot as plt
-
-            plt.ion()
-            self.figure = plt.figure(figsize=(size_inches, size_inches), dpi=dpi)
-        else:
-            from matplotlib.backends.backend_agg import FigureCanvasAgg
-            from matplotlib.figure import Figure
-
-            self.figure = Figure(figsize=(size_inches, size_inches), dpi=dpi)
-            FigureCanvasAgg(self.figure)
         ax = self.figure.add_subplot(1, 1, 1)
         self.figure.subplots_adjust(left=0.1, right=0.97, top=0.9, bottom=0.22)
-        self.axes = ax
         ax.set_aspect("equal")
         ax.set_xlabel("x (units)")
         ax.set_ylabel("y (units)")
@@ -136,21 +196,8 @@ class SearchRenderer:
                 gid="frame",
             )
         )
-        self._particles = self._particle_artist(ax, self._scale * 0.02)
-        self.trail_lines: list[Any] = []
-        self._colours: list[Any] = []
-        self._heads: Any = None
-        self.arrows: Any = None
-        (self._estimate,) = ax.plot([], [], **_estimate_style(12))
-        (self._target,) = ax.plot([], [], **_target_style(9))
-        self.title_artist = ax.set_title(title)
-        self.legend: Any = None
-        self.inset: Any = None
-        self._corner = INSET_CORNERS[0]
-        self._scale_bar: Any = None
-        self._fit_axes(np.empty((0, 2)))
+        return ax
 
-    # -- artists
     def _particle_artist(self, ax: Any, half_length: float) -> Any:
         from matplotlib.collections import LineCollection
 
@@ -287,37 +334,40 @@ class SearchRenderer:
         Returns:
             ``(H, W, 3)`` uint8 RGB frame off-screen; ``None`` in ``human`` mode.
         """
-        w_max = float(np.max(weights)) if weights.size else 1.0
-        grey = 0.9 * (1.0 - weights / (w_max if w_max > 0 else 1.0))
-        colours = np.stack([grey, grey, grey, np.ones_like(grey)], axis=-1)
+        colours = particle_colours(weights)
         order = np.argsort(weights, kind="stable")  # heaviest drawn last (on top)
-        positions = particles[order, :2]
         angles = None if self._angle_dim is None else particles[order, self._angle_dim]
-        self._set_particles(self._particles, positions, angles, colours[order])
-
+        self._set_particles(self._particles, particles[order, :2], angles, colours[order])
         points = [particles[:, :2], np.asarray(target[:2])[None, :]]
-        if trails is not None and trails.size:
-            n_agents = trails.shape[1]
-            self._vehicle_artists(n_agents)
-            for a, line in enumerate(self.trail_lines[:n_agents]):
-                line.set_data(trails[:, a, 0], trails[:, a, 1])
-            self._heads.set_offsets(trails[-1])
-            arrows = np.zeros((n_agents, 2)) if headings is None else np.asarray(headings)
-            self.arrows.set_offsets(trails[-1])
-            self.arrows.set_UVC(*(0.05 * self._scale * arrows).T)
-            points.append(trails.reshape(-1, 2))
-            points.append(trails[-1] + 0.05 * self._scale * arrows)
+        points += self._update_vehicles(trails, headings)
         self._fit_axes(np.concatenate(points))
         self._estimate.set_data([estimate[0]], [estimate[1]])
         self._target.set_data([target[0]], [target[1]])
         self._marks = np.concatenate(points[1:] + [np.asarray(estimate[:2])[None, :]])
-        title = f"{self.title}  t = {step}" if self.title else f"t = {step}"
-        if mass is not None:
-            within = "" if radius is None else f" within {radius:g}"
-            title += f"\nposterior mass{within} of the estimate: {mass:.2f}"
-        self.title_artist.set_text(title)
+        self.title_artist.set_text(frame_title(self.title, step, mass, radius))
         self._update_inset(particles, weights, estimate, target, radius, colours, order)
+        return self._show_frame()
 
+    def _update_vehicles(
+        self, trails: FloatArray | None, headings: FloatArray | None
+    ) -> list[FloatArray]:
+        """Move the trails, the vehicles and their heading arrows (see :meth:`draw`); returns
+        the points they cover, trail points and arrow tips (none without trails)."""
+        if trails is None or not trails.size:
+            return []
+        n_agents = trails.shape[1]
+        self._vehicle_artists(n_agents)
+        for a, line in enumerate(self.trail_lines[:n_agents]):
+            line.set_data(trails[:, a, 0], trails[:, a, 1])
+        self._heads.set_offsets(trails[-1])
+        arrows = np.zeros((n_agents, 2)) if headings is None else np.asarray(headings)
+        self.arrows.set_offsets(trails[-1])
+        self.arrows.set_UVC(*(0.05 * self._scale * arrows).T)
+        return [trails.reshape(-1, 2), trails[-1] + 0.05 * self._scale * arrows]
+
+    def _show_frame(self) -> NDArray[np.uint8] | None:
+        """Draw the figure: in its window (``human``; returns ``None``) or off-screen, returning
+        the ``(H, W, 3)`` uint8 RGB pixels."""
         if self.human:
             import matplotlib.pyplot as plt
 

@@ -15,7 +15,7 @@ from PIL import Image
 
 import infoseek.envs
 import infoseek.experiments.demo as demo
-from infoseek.envs.rendering import SearchRenderer
+from infoseek.envs.rendering import SearchRenderer, frame_title, particle_colours
 from infoseek.experiments.cli import main
 
 SMALL = {"n_particles": 300}
@@ -163,3 +163,22 @@ def test_demo_progress_bar_shows_the_time_left(
     text = str(bar)
     bar.close()
     assert "1/5" in text and "step" in text and "<" in text  # elapsed<remaining: the ETA
+
+
+def test_particle_colours_are_opaque_greys_darker_for_heavier_weights() -> None:
+    colours = particle_colours(np.array([0.0, 0.25, 0.5]))
+    np.testing.assert_allclose(colours[:, 0], [0.9, 0.45, 0.0])
+    np.testing.assert_array_equal(colours[:, 0], colours[:, 1])
+    np.testing.assert_array_equal(colours[:, 0], colours[:, 2])
+    np.testing.assert_array_equal(colours[:, 3], 1.0)
+    np.testing.assert_allclose(particle_colours(np.zeros(2))[:, :3], 0.9)
+    assert particle_colours(np.zeros(0)).shape == (0, 4)
+
+
+def test_frame_title_gives_the_step_and_the_posterior_mass() -> None:
+    assert frame_title("", 3, None, None) == "t = 3"
+    assert frame_title("bearings", 3, None, 1.0) == "bearings  t = 3"
+    assert frame_title("", 7, 0.456, 1.5) == (
+        "t = 7\nposterior mass within 1.5 of the estimate: 0.46"
+    )
+    assert frame_title("", 7, 0.456, None) == "t = 7\nposterior mass of the estimate: 0.46"
