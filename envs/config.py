@@ -315,7 +315,7 @@ class SearchConfig:
             raise ValueError(
                 f"unknown configuration key(s) {sorted(unknown)}; valid keys are {valid}"
             )
-        # checked in this order, so that of several bad settings the first listed is reported
+        # the settings are checked in this order: of several bad ones, the first is reported
         self._set_components(
             sensor, sensor_kwargs, vehicle, vehicle_kwargs, target_motion, target_motion_kwargs
         )
