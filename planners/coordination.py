@@ -439,29 +439,59 @@ def coordinate(
         The final plans and diagnostics.
     """
     controls, positions = _validate_candidates(candidate_controls, candidate_positions)
-    n_vehicles = len(controls)
     if initial_indices is None:
-        nominal = np.array(
-            [int(np.argmin(np.linalg.norm(u - u.mean(axis=0), axis=1))) for u in controls],
-            dtype=np.int64,
-        )
-        plans = np.array(
-            [
-                int(np.argmax(_checked_utility(utility, i, nominal, controls[i].shape[0])))
-                for i in range(n_vehicles)
-            ],
-            dtype=np.int64,
-        )
+        plans = _nominal_best_plans(controls, utility)
     else:
-        plans = np.asarray(initial_indices, dtype=np.int64).copy()
-        if plans.shape != (n_vehicles,):
-            raise ValueError(f"initial_indices must have shape ({n_vehicles},), got {plans.shape}")
-        for i in range(n_vehicles):
-            if not 0 <= plans[i] < controls[i].shape[0]:
-                raise ValueError(
-                    f"initial_indices[{i}] = {plans[i]} outside [0, {controls[i].shape[0]})"
-                )
+        plans = _checked_initial_indices(initial_indices, controls)
+    return _penalty_ascent(plans, utility, controls, positions, settings)
 
+
+def _nominal_best_plans(controls: list[FloatArray], utility: UtilityFunction) -> IntArray:
+    """Every vehicle's unpenalised argmax of ``utility(i, nominal)``, ``nominal[j]`` being
+    vehicle ``j``'s candidate closest to the centre of its candidate controls."""
+    nominal = np.array(
+        [int(np.argmin(np.linalg.norm(u - u.mean(axis=0), axis=1))) for u in controls],
+        dtype=np.int64,
+    )
+    return np.array(
+        [
+            int(np.argmax(_checked_utility(utility, i, nominal, controls[i].shape[0])))
+            for i in range(len(controls))
+        ],
+        dtype=np.int64,
+    )
+
+
+def _checked_initial_indices(
+    initial_indices: IntArray | Sequence[int], controls: list[FloatArray]
+) -> IntArray:
+    """A copy of ``initial_indices`` as ``(A,)`` int64 plans, each a valid candidate index.
+
+    Raises:
+        ValueError: Wrong shape, or an index outside its vehicle's candidates.
+    """
+    n_vehicles = len(controls)
+    plans = np.asarray(initial_indices, dtype=np.int64).copy()
+    if plans.shape != (n_vehicles,):
+        raise ValueError(f"initial_indices must have shape ({n_vehicles},), got {plans.shape}")
+    for i in range(n_vehicles):
+        if not 0 <= plans[i] < controls[i].shape[0]:
+            raise ValueError(
+                f"initial_indices[{i}] = {plans[i]} outside [0, {controls[i].shape[0]})"
+            )
+    return plans
+
+
+def _penalty_ascent(
+    plans: IntArray,
+    utility: UtilityFunction,
+    controls: list[FloatArray],
+    positions: list[FloatArray],
+    settings: PenaltySettings,
+) -> CoordinationResult:
+    """The sweeps of :func:`coordinate` from the first exchange ``plans``, with ``beta``
+    shrinking by ``alpha`` after every sweep that did not meet the stopping rule."""
+    n_vehicles = len(controls)
     copies = np.tile(plans, (n_vehicles, 1))
     beta = settings.beta
     changes: list[float] = []
@@ -473,41 +503,113 @@ def coordinate(
     for iteration in range(1, settings.max_iterations + 1):
         iterations = iteration
         last_beta = beta
-        exchanged = plans.copy()  # what every vehicle received at the last exchange
-        new_plans = plans.copy()
-        for i in range(n_vehicles):
-            view = new_plans if settings.schedule == "gauss-seidel" else exchanged
-            copy_i = view.copy()
-            copies[i] = copy_i
-            u_i = _checked_utility(utility, i, copy_i, controls[i].shape[0])
-            if fleet is not None:  # Gauss-Seidel, gamma = 2: one compiled pass
-                best = int(
-                    _gauss_seidel_choice(
-                        u_i, fleet, copy_i, i, int(exchanged[i]), beta, settings.min_separation
-                    )
-                )
-            else:
-                best = _local_choice(i, u_i, positions, copy_i, exchanged, beta, settings)
-            new_plans[i] = best
-            copies[i, i] = best
-            local_utilities[i] = u_i[best]
-        change = max(
-            _norm(controls[i][new_plans[i]] - controls[i][plans[i]]) for i in range(n_vehicles)
+        new_plans = _sweep(
+            plans, copies, local_utilities, utility, controls, positions, fleet, beta, settings
         )
+        change = _largest_change(controls, plans, new_plans)
         changes.append(change)
         plans = new_plans
-        violation = _horizon_violation(
-            np.array([positions[i][plans[i]] for i in range(n_vehicles)]), settings.min_separation
-        )
+        violation = _horizon_violation(_planned_tracks(positions, plans), settings.min_separation)
         if change <= settings.tolerance and violation <= settings.feasibility_tolerance:
             converged = True
             break
         beta *= settings.alpha
+    return _coordination_result(
+        controls,
+        positions,
+        plans,
+        copies,
+        local_utilities,
+        settings,
+        iterations=iterations,
+        converged=converged,
+        beta=last_beta,
+        changes=changes,
+    )
 
-    final_tracks = np.array([positions[i][plans[i]] for i in range(n_vehicles)])  # (A, H, 2)
-    final_positions = final_tracks[:, 0, :]
-    final_controls = np.array([controls[i][plans[i]] for i in range(n_vehicles)])
-    penalties = np.array(
+
+def _sweep(
+    plans: IntArray,
+    copies: IntArray,
+    local_utilities: FloatArray,
+    utility: UtilityFunction,
+    controls: list[FloatArray],
+    positions: list[FloatArray],
+    fleet: FloatArray | None,
+    beta: float,
+    settings: PenaltySettings,
+) -> IntArray:
+    """One sweep of local solves (eq. 29) over the vehicles in index order; returns the new
+    plans and writes every vehicle's copy into ``copies`` and the utility of its new plan into
+    ``local_utilities``."""
+    exchanged = plans.copy()  # what every vehicle received at the last exchange
+    new_plans = plans.copy()
+    for i in range(len(controls)):
+        view = new_plans if settings.schedule == "gauss-seidel" else exchanged
+        copy_i = view.copy()
+        copies[i] = copy_i
+        u_i = _checked_utility(utility, i, copy_i, controls[i].shape[0])
+        if fleet is not None:  # Gauss-Seidel, gamma = 2: one compiled pass
+            best = int(
+                _gauss_seidel_choice(
+                    u_i, fleet, copy_i, i, int(exchanged[i]), beta, settings.min_separation
+                )
+            )
+        else:
+            best = _local_choice(i, u_i, positions, copy_i, exchanged, beta, settings)
+        new_plans[i] = best
+        copies[i, i] = best
+        local_utilities[i] = u_i[best]
+    return new_plans
+
+
+def _largest_change(controls: list[FloatArray], plans: IntArray, new_plans: IntArray) -> float:
+    """Largest control distance between a vehicle's new plan and its previous one."""
+    return max(
+        _norm(controls[i][new_plans[i]] - controls[i][plans[i]]) for i in range(len(controls))
+    )
+
+
+def _planned_tracks(positions: list[FloatArray], plans: IntArray) -> FloatArray:
+    """``(A, H, 2)`` predicted tracks of every vehicle's planned candidate."""
+    return np.array([positions[i][plans[i]] for i in range(len(positions))])
+
+
+def _coordination_result(
+    controls: list[FloatArray],
+    positions: list[FloatArray],
+    plans: IntArray,
+    copies: IntArray,
+    local_utilities: FloatArray,
+    settings: PenaltySettings,
+    *,
+    iterations: int,
+    converged: bool,
+    beta: float,
+    changes: list[float],
+) -> CoordinationResult:
+    """The :class:`CoordinationResult` of the final ``plans`` (penalties, agreement residual and
+    violation evaluated on them) and the given sweep diagnostics."""
+    final_tracks = _planned_tracks(positions, plans)  # (A, H, 2)
+    return CoordinationResult(
+        indices=plans,
+        controls=np.array([controls[i][plans[i]] for i in range(len(controls))]),
+        positions=final_tracks[:, 0, :],
+        utilities=local_utilities.copy(),
+        penalties=_final_penalties(final_tracks, settings),
+        copies=copies,
+        agreement_residual=_agreement_residual(controls, copies, plans),
+        iterations=iterations,
+        converged=converged,
+        beta=beta,
+        max_violation=_horizon_violation(final_tracks, settings.min_separation),
+        changes=tuple(changes),
+    )
+
+
+def _final_penalties(final_tracks: FloatArray, settings: PenaltySettings) -> FloatArray:
+    """``(A,)`` separation penalty of every vehicle's ``(H, 2)`` track against the others'."""
+    return np.array(
         [
             horizon_separation_penalty(
                 final_tracks[i],
@@ -515,27 +617,19 @@ def coordinate(
                 settings.min_separation,
                 settings.gamma,
             )
-            for i in range(n_vehicles)
+            for i in range(final_tracks.shape[0])
         ]
     )
+
+
+def _agreement_residual(controls: list[FloatArray], copies: IntArray, plans: IntArray) -> float:
+    """Largest control distance between a copy ``copies[i, j]`` and vehicle ``j``'s plan."""
     residual = 0.0
+    n_vehicles = len(controls)
     for i in range(n_vehicles):
         for j in range(n_vehicles):
             residual = max(residual, _norm(controls[j][copies[i, j]] - controls[j][plans[j]]))
-    return CoordinationResult(
-        indices=plans,
-        controls=final_controls,
-        positions=final_positions,
-        utilities=local_utilities.copy(),
-        penalties=penalties,
-        copies=copies,
-        agreement_residual=residual,
-        iterations=iterations,
-        converged=converged,
-        beta=last_beta,
-        max_violation=_horizon_violation(final_tracks, settings.min_separation),
-        changes=tuple(changes),
-    )
+    return residual
 
 
 def _local_choice(
