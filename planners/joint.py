@@ -27,12 +27,13 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from infoseek.planners.base import InformationPlanner, PlanDiagnostics
 from infoseek.planners.config import PlannerConfig
 from infoseek.planners.controls import controls_to_actions
 from infoseek.planners.coordination import max_violation, separation_penalty
-from infoseek.planners.information import MAX_GRID_OBSERVATIONS
+from infoseek.planners.information import MAX_GRID_OBSERVATIONS, BeliefMI
 from infoseek.planners.model import EnvModel, FloatArray
 
 __all__ = ["JointPlanner"]
@@ -63,75 +64,23 @@ class JointPlanner(InformationPlanner):
         rows = [self.model.agent_index(agent) for agent in agents]
         belief = self._beliefs(agents[:1], infos)[0]
         positions = [self._next_positions(states[r], self.candidates) for r in rows]
-        n = len(agents)
-        c = self.candidates.shape[0]
-        d_bar = self.settings.min_separation
-        gamma = self.settings.gamma
-
-        def penalty_of(joint_positions: FloatArray) -> FloatArray:
-            # joint_positions (..., n, 2) -> (...,) total penalty over pairs
-            total = np.zeros(joint_positions.shape[:-2])
-            for a in range(n):
-                for b in range(a + 1, n):
-                    total = total + separation_penalty(
-                        joint_positions[..., a, :],
-                        joint_positions[..., b, :][..., None, :],
-                        d_bar,
-                        gamma,
-                    )
-            return total
-
         iterations = 1
-        if c**n <= self.config.max_exhaustive:
-            combos = np.array(list(itertools.product(range(c), repeat=n)), dtype=np.int64)
-            joint = np.stack([positions[a][combos[:, a]] for a in range(n)], axis=1)  # (K, n, 2)
-            penalties = penalty_of(joint)
-            values = self._timed(belief.joint, joint)
-            score = np.where(penalties > 0, -np.inf, values)
-            best = int(np.argmax(score)) if np.isfinite(score).any() else int(np.argmin(penalties))
-            plans = combos[best].copy()
-            utility = float(values[best])
+        if self.candidates.shape[0] ** len(agents) <= self.config.max_exhaustive:
+            plans, utility = self._exhaustive_plans(belief, positions)
         else:
-            plans = np.array([int(np.argmax(self._single(belief, positions[a]))) for a in range(n)])
-            utility = -np.inf
-            for sweep in range(1, self.settings.max_iterations + 1):
-                iterations = sweep
-                changed = False
-                for a in range(n):
-                    others = np.array([positions[b][plans[b]] for b in range(n) if b != a])
-                    sets = np.concatenate(
-                        [
-                            positions[a][:, None, :],
-                            np.broadcast_to(others, (c,) + others.shape),
-                        ],
-                        axis=1,
-                    )
-                    values = self._timed(belief.joint, sets)
-                    penalties = separation_penalty(positions[a], others, d_bar, gamma)
-                    score = np.where(penalties > 0, -np.inf, values)
-                    if np.isfinite(score).any():
-                        choice = int(np.argmax(score))
-                        if score[plans[a]] >= score[choice]:
-                            choice = int(plans[a])
-                    else:
-                        choice = int(np.argmin(penalties))
-                    changed |= choice != plans[a]
-                    plans[a] = choice
-                    utility = float(values[choice])
-                if not changed:
-                    break
+            plans, utility, iterations = self._coordinate_ascent(belief, positions)
         controls = self.candidates[plans]
-        final_positions = np.array([positions[a][plans[a]] for a in range(n)])
+        final_positions = np.array([positions[a][plans[a]] for a in range(len(agents))])
         actions = controls_to_actions(self.model, agents, controls)
         self.last_plan = dataclasses.replace(
             PlanDiagnostics(
                 agents=tuple(agents),
                 controls=controls,
                 grid_controls=controls,
-                utilities=np.full(n, utility),
+                utilities=np.full(len(agents), utility),
                 iterations=iterations,
                 converged=True,
-                max_violation=max_violation(final_positions, d_bar),
+                max_violation=max_violation(final_positions, self.settings.min_separation),
                 agreement_residual=0.0,
                 beta=self.settings.beta,
                 refined=False,
@@ -142,3 +91,105 @@ class JointPlanner(InformationPlanner):
             utility_time=self._utility_seconds,
         )
         return actions
+
+    def _exhaustive_plans(
+        self, belief: BeliefMI, positions: list[FloatArray]
+    ) -> tuple[NDArray[np.int64], float]:
+        """The best of all ``C^n`` joint candidates and its joint MI: the largest MI among the
+        feasible ones, or the smallest total penalty if none is feasible.
+
+        Args:
+            belief: The planning belief.
+            positions: Per vehicle, ``(C, 2)`` next positions of the candidates.
+        """
+        n = len(positions)
+        combos = np.array(
+            list(itertools.product(range(self.candidates.shape[0]), repeat=n)), dtype=np.int64
+        )
+        joint = np.stack([positions[a][combos[:, a]] for a in range(n)], axis=1)  # (K, n, 2)
+        penalties = _pairs_penalty(joint, self.settings.min_separation, self.settings.gamma)
+        values = self._timed(belief.joint, joint)
+        score = np.where(penalties > 0, -np.inf, values)
+        best = int(np.argmax(score)) if np.isfinite(score).any() else int(np.argmin(penalties))
+        return combos[best].copy(), float(values[best])
+
+    def _coordinate_ascent(
+        self, belief: BeliefMI, positions: list[FloatArray]
+    ) -> tuple[NDArray[np.int64], float, int]:
+        """Sweeps of best responses from the single-node choices until no plan changes or
+        ``max_iterations`` sweeps; the plans, the joint MI of the last choice and the sweeps.
+
+        Args:
+            belief: The planning belief.
+            positions: Per vehicle, ``(C, 2)`` next positions of the candidates.
+        """
+        plans = np.array([int(np.argmax(self._single(belief, track))) for track in positions])
+        utility = -np.inf
+        iterations = 1
+        for sweep in range(1, self.settings.max_iterations + 1):
+            iterations = sweep
+            changed = False
+            for a in range(len(positions)):
+                choice, utility = self._best_response(belief, positions, plans, a)
+                changed |= choice != plans[a]
+                plans[a] = choice
+            if not changed:
+                break
+        return plans, utility, iterations
+
+    def _best_response(
+        self, belief: BeliefMI, positions: list[FloatArray], plans: NDArray[np.int64], a: int
+    ) -> tuple[int, float]:
+        """Vehicle ``a``'s best candidate with the others' ``plans`` fixed (its current plan on
+        ties; the smallest penalty if none is feasible) and the joint MI of that choice.
+
+        Args:
+            belief: The planning belief.
+            positions: Per vehicle, ``(C, 2)`` next positions of the candidates.
+            plans: ``(n,)`` current candidate index of every vehicle.
+            a: The vehicle that chooses.
+        """
+        others = np.array([positions[b][plans[b]] for b in range(len(positions)) if b != a])
+        sets = np.concatenate(
+            [
+                positions[a][:, None, :],
+                np.broadcast_to(others, (self.candidates.shape[0],) + others.shape),
+            ],
+            axis=1,
+        )
+        values = self._timed(belief.joint, sets)
+        penalties = separation_penalty(
+            positions[a], others, self.settings.min_separation, self.settings.gamma
+        )
+        score = np.where(penalties > 0, -np.inf, values)
+        if np.isfinite(score).any():
+            choice = int(np.argmax(score))
+            if score[plans[a]] >= score[choice]:
+                choice = int(plans[a])
+        else:
+            choice = int(np.argmin(penalties))
+        return choice, float(values[choice])
+
+
+def _pairs_penalty(joint_positions: FloatArray, min_separation: float, gamma: float) -> FloatArray:
+    """Total separation penalty (eq. 27) over every pair of vehicles of joint plans.
+
+    Args:
+        joint_positions: ``(..., n, 2)`` next positions of the ``n`` vehicles of each plan.
+        min_separation: The separation.
+        gamma: Penalty exponent.
+
+    Returns:
+        ``(...)`` sum over pairs ``a < b`` of the penalty of ``a`` against ``b``.
+    """
+    n = joint_positions.shape[-2]
+    total = np.zeros(joint_positions.shape[:-2])
+    for a in range(n):
+        for b in range(a + 1, n):
+            total = total + separation_penalty(
+                joint_positions[..., a, :],
+                joint_positions[..., b, :][..., None, :],
+                min_separation,
+                gamma,
+            )
+    return total
