@@ -268,13 +268,21 @@ def mutual_information(
     result, estimator, unresolved = _estimate(
         sensor, poses[None], particles, weights, method, options
     )
+    return _set_estimate(result, estimator, unresolved, 0)
+
+
+def _set_estimate(
+    result: JointEntropies, estimator: MIEstimator, unresolved: FloatArray, index: int
+) -> MIEstimate:
+    """The :class:`MIEstimate` of pose set ``index`` of ``result`` (by ``estimator``, with the
+    ``unresolved`` mass of each set)."""
     return MIEstimate(
-        result.values[0],
-        result.stderrs[0],
+        result.values[index],
+        result.stderrs[index],
         estimator.name,
-        result.entropy[0],
-        result.conditional[0],
-        unresolved_mass=unresolved[0],
+        result.entropy[index],
+        result.conditional[index],
+        unresolved_mass=unresolved[index],
         lower_bound=estimator.lower_bound,
     )
 
