@@ -101,29 +101,11 @@ def evaluate_policy(
     for seed in seed_list:
         if reset_policy is not None:
             reset_policy(policy, seed)
-        observations, infos = env.reset(seed=seed)
-        agents = list(env.agents)
-        if not agents:
-            raise ValueError(f"episode with seed {seed} has no live agents after reset")
-        initial_entropy = np.array([infos[a]["entropy"] for a in agents], dtype=np.float64)
-        mass_sum = np.zeros(len(agents))
-        episode_return = np.zeros(len(agents))
-        last_infos = infos
-        steps = 0
-        while env.agents:
-            actions = policy.act(observations, infos)
-            observations, rewards, _, _, infos = env.step(actions)
-            steps += 1
-            mass_sum += [infos[a]["posterior_mass"] for a in agents]
-            episode_return += [rewards[a] for a in agents]
-            last_infos = infos
-        if steps == 0:
-            raise ValueError(f"episode with seed {seed} ended before its first step")
-        final_entropy = np.array([last_infos[a]["entropy"] for a in agents], dtype=np.float64)
-        reductions.append(float(np.mean(initial_entropy - final_entropy)))
-        finals.append(float(np.mean([last_infos[a]["posterior_mass"] for a in agents])))
-        means.append(float(np.mean(mass_sum / steps)))
-        returns.append(float(np.mean(episode_return)))
+        reduction, final, mean, episode_return, steps = _episode_metrics(policy, env, seed)
+        reductions.append(reduction)
+        finals.append(final)
+        means.append(mean)
+        returns.append(episode_return)
         lengths.append(steps)
     return EvaluationResult(
         seeds=tuple(seed_list),
@@ -132,4 +114,41 @@ def evaluate_policy(
         mean_posterior_mass=np.asarray(means),
         episode_return=np.asarray(returns),
         episode_length=np.asarray(lengths, dtype=np.int64),
+    )
+
+
+def _episode_metrics(policy: Any, env: Any, seed: int) -> tuple[float, float, float, float, int]:
+    """One episode of ``policy`` on ``env`` reset with ``seed``: its entropy reduction, final
+    and mean posterior mass and return (means over the agents live after the reset), and its
+    steps.
+
+    Raises:
+        ValueError: No live agents after the reset, or an episode that ends before its first
+            step.
+    """
+    observations, infos = env.reset(seed=seed)
+    agents = list(env.agents)
+    if not agents:
+        raise ValueError(f"episode with seed {seed} has no live agents after reset")
+    initial_entropy = np.array([infos[a]["entropy"] for a in agents], dtype=np.float64)
+    mass_sum = np.zeros(len(agents))
+    episode_return = np.zeros(len(agents))
+    last_infos = infos
+    steps = 0
+    while env.agents:
+        actions = policy.act(observations, infos)
+        observations, rewards, _, _, infos = env.step(actions)
+        steps += 1
+        mass_sum += [infos[a]["posterior_mass"] for a in agents]
+        episode_return += [rewards[a] for a in agents]
+        last_infos = infos
+    if steps == 0:
+        raise ValueError(f"episode with seed {seed} ended before its first step")
+    final_entropy = np.array([last_infos[a]["entropy"] for a in agents], dtype=np.float64)
+    return (
+        float(np.mean(initial_entropy - final_entropy)),
+        float(np.mean([last_infos[a]["posterior_mass"] for a in agents])),
+        float(np.mean(mass_sum / steps)),
+        float(np.mean(episode_return)),
+        steps,
     )

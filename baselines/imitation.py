@@ -286,6 +286,21 @@ def _write_curve_row(path: Path, row: Mapping[str, float]) -> None:
         writer.writerow({k: row[k] for k in IMITATION_CURVE_COLUMNS})
 
 
+def _policy_model(config: ImitationConfig, out: Path) -> tuple[BaseAlgorithm, list[Any]]:
+    """The PPO model to fit, built as :func:`~infoseek.baselines.training.train` builds it
+    (TensorBoard logs under ``out``), and the environments it was built on (to close)."""
+    vec_env = make_training_vec_env(config.env_id, config.full_env_kwargs(), n_envs=1)
+    probe = make(config.env_id, **config.full_env_kwargs())
+    return build_model(config.training_config(), vec_env, probe, out), [vec_env, probe]
+
+
+def _evaluation_env(config: ImitationConfig) -> Any:
+    """The environment of the evaluation episodes: ``episode_steps`` long, beliefs in the
+    infos (the expert plans from them)."""
+    eval_kwargs = {**config.full_env_kwargs(), "max_cycles": config.episode_steps}
+    return make(config.env_id, **eval_kwargs, belief_in_infos=True)
+
+
 def train_imitation(
     config: ImitationConfig,
     out: str | Path,
@@ -307,15 +322,11 @@ def train_imitation(
     out = Path(out)
     torch.manual_seed(config.seed)
     rng = np.random.default_rng([config.seed, 4201])
-    training = config.training_config()
-    vec_env = make_training_vec_env(config.env_id, config.full_env_kwargs(), n_envs=1)
-    probe = make(config.env_id, **config.full_env_kwargs())
-    model = build_model(training, vec_env, probe, out)
+    model, model_envs = _policy_model(config, out)
     (out / ITERATION_DIR).mkdir(parents=True, exist_ok=True)
     curve_path = out / CURVE_FILE
     curve_path.unlink(missing_ok=True)
-    eval_kwargs = {**config.full_env_kwargs(), "max_cycles": config.episode_steps}
-    eval_env = make(config.env_id, **eval_kwargs, belief_in_infos=True)
+    eval_env = _evaluation_env(config)
     seeds = evaluation_seeds(config.eval_episodes)
     expert = build_expert(config.expert, eval_env, seed=config.seed)
     expert_evaluation = evaluate_policy(expert, eval_env, seeds).summary()
@@ -345,9 +356,23 @@ def train_imitation(
     finally:
         if pool is not None:
             pool.shutdown()
-        for env in (vec_env, probe, eval_env):
+        for env in (*model_envs, eval_env):
             env.close()
     assert data is not None  # at least the cloning iteration ran
+    return _finish_run(config, out, model, data, row, expert_evaluation, start)
+
+
+def _finish_run(
+    config: ImitationConfig,
+    out: Path,
+    model: BaseAlgorithm,
+    data: LabelledBatch,
+    row: Mapping[str, float],
+    expert_evaluation: Mapping[str, float],
+    start: float,
+) -> ImitationResult:
+    """Save the final ``model`` and ``config.json`` (with the imitation record) in ``out``,
+    remove the per-iteration models, and return the result (``row``: the last curve row)."""
     model.save(str(out / MODEL_FILE))
     shutil.rmtree(out / ITERATION_DIR)
     wall = time.perf_counter() - start
@@ -362,7 +387,7 @@ def train_imitation(
     return ImitationResult(
         model_path=out / MODEL_FILE,
         config_path=config_path,
-        curve_path=curve_path,
+        curve_path=out / CURVE_FILE,
         labelled_states=int(data.observations.shape[0]),
         wall_seconds=wall,
         last_evaluation={k: float(v) for k, v in row.items()},

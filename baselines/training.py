@@ -454,65 +454,146 @@ def train(
     """
     start = time.perf_counter()
     out = Path(out)
+    config, resume = _resume_point(out, config)
+    if config.torch_threads is not None:
+        torch.set_num_threads(int(config.torch_threads))
+    if resume is not None and resume[1] >= config.timesteps and (out / MODEL_FILE).is_file():
+        return _already_trained(out, resume, start)
+    config, initial = _initial_model(config, resume)
+    previous = json.loads((out / CONFIG_FILE).read_text()) if (out / CONFIG_FILE).is_file() else {}
+    vec_env = make_training_vec_env(
+        config.env_id, config.full_env_kwargs(), n_envs=config.n_envs, num_cpus=config.num_cpus
+    )
+    model, start_timesteps = _training_model(config, vec_env, out, resume, initial)
+    out.mkdir(parents=True, exist_ok=True)  # the model is built: now the run directory is written
+    write_run_config(out, config, previous.get("trained_timesteps"))
+    callbacks, evaluation = _training_callbacks(
+        config, out, model, vec_env.num_envs, progress, on_evaluation
+    )
+    model.learn(
+        total_timesteps=config.timesteps - start_timesteps,
+        callback=callbacks,
+        reset_num_timesteps=resume is None,
+        tb_log_name=config.algo,
+    )
+    config_path = _save_trained_model(config, out, model)
+    vec_env.close()
+    if evaluation.env is not None:
+        evaluation.env.close()
+    return TrainingResult(
+        model_path=out / MODEL_FILE,
+        config_path=config_path,
+        curve_path=out / CURVE_FILE,
+        resumed_from=resume[0] if resume is not None else None,
+        start_timesteps=start_timesteps,
+        timesteps=int(model.num_timesteps),
+        wall_seconds=time.perf_counter() - start,
+        last_evaluation=evaluation.last_summary,
+    )
+
+
+def _resume_point(
+    out: Path, config: TrainingConfig
+) -> tuple[TrainingConfig, tuple[Path, int] | None]:
+    """``config`` checked against the run in ``out`` (with that run's hyperparameters when it is
+    resumed) and the newest saved model with its timesteps (``None``: a fresh start).
+
+    Raises:
+        ValueError: ``out`` holds an incompatible run, or hyperparameters that differ.
+    """
     _check_resumable(out, config)
     resume = find_resume_point(out)
     if resume is not None and (out / CONFIG_FILE).is_file():
         config = _resumed_config(out, config)
-    if config.torch_threads is not None:
-        torch.set_num_threads(int(config.torch_threads))
+    return config, resume
 
-    env_kwargs = config.full_env_kwargs()
-    curve_path = out / CURVE_FILE
-    model_path = out / MODEL_FILE
-    algo_class = ALGORITHMS[config.algo]
-    if resume is not None and resume[1] >= config.timesteps and model_path.is_file():
-        return TrainingResult(
-            model_path=model_path,
-            config_path=out / CONFIG_FILE,
-            curve_path=curve_path,
-            resumed_from=resume[0],
-            start_timesteps=resume[1],
-            timesteps=resume[1],
-            wall_seconds=time.perf_counter() - start,
-            last_evaluation=None,
-        )
 
-    initial: BaseAlgorithm | None = None
-    if resume is None and config.init_from is not None:
-        initial = check_initial_model(config)
-        config = _with_initial_architecture(config, initial)
-    previous = json.loads((out / CONFIG_FILE).read_text()) if (out / CONFIG_FILE).is_file() else {}
-    vec_env = make_training_vec_env(
-        config.env_id, env_kwargs, n_envs=config.n_envs, num_cpus=config.num_cpus
+def _initial_model(
+    config: TrainingConfig, resume: tuple[Path, int] | None
+) -> tuple[TrainingConfig, BaseAlgorithm | None]:
+    """The model a fresh run starts from (``config.init_from``, else ``None``) and ``config``
+    with its hidden layers; a resumed run starts from its own checkpoint (``None``)."""
+    if resume is not None or config.init_from is None:
+        return config, None
+    initial = check_initial_model(config)
+    return _with_initial_architecture(config, initial), initial
+
+
+def _already_trained(out: Path, resume: tuple[Path, int], start: float) -> TrainingResult:
+    """The result of a run whose newest saved model (``resume``) already reached the requested
+    timesteps: nothing trained, wall time since ``start``."""
+    return TrainingResult(
+        model_path=out / MODEL_FILE,
+        config_path=out / CONFIG_FILE,
+        curve_path=out / CURVE_FILE,
+        resumed_from=resume[0],
+        start_timesteps=resume[1],
+        timesteps=resume[1],
+        wall_seconds=time.perf_counter() - start,
+        last_evaluation=None,
     )
-    resumed_from: Path | None = None
-    if resume is None:
-        probe_env = make(config.env_id, **env_kwargs)
-        model = build_model(config, vec_env, probe_env, out)
-        probe_env.close()
-        if initial is not None:
-            model.policy.load_state_dict(initial.policy.state_dict())
-        start_timesteps = 0
-        curve_path.unlink(missing_ok=True)
-    else:
-        resumed_from, start_timesteps = resume
-        model = algo_class.load(
-            str(resumed_from),
-            env=vec_env,
-            device="cpu",
-            tensorboard_log=str(out / TENSORBOARD_DIR),
-        )
-        start_timesteps = int(model.num_timesteps)
-        model.set_random_seed(config.seed + start_timesteps)
-        if isinstance(model, OffPolicyAlgorithm):
-            buffer = out / CHECKPOINT_DIR / f"model_replay_buffer_{start_timesteps}_steps.pkl"
-            if buffer.is_file():
-                model.load_replay_buffer(str(buffer))
-        truncate_curve(curve_path, start_timesteps)
-    out.mkdir(parents=True, exist_ok=True)  # the model is built: now the run directory is written
-    write_run_config(out, config, previous.get("trained_timesteps"))
 
-    n_slots = vec_env.num_envs
+
+def _training_model(
+    config: TrainingConfig,
+    vec_env: Any,
+    out: Path,
+    resume: tuple[Path, int] | None,
+    initial: BaseAlgorithm | None,
+) -> tuple[BaseAlgorithm, int]:
+    """The model to train on ``vec_env`` (new, or loaded from ``resume``) and the timesteps it
+    has already trained (0 for a new one)."""
+    if resume is None:
+        return _fresh_model(config, vec_env, out, initial), 0
+    model = _resumed_model(config, vec_env, out, resume[0])
+    return model, int(model.num_timesteps)
+
+
+def _fresh_model(
+    config: TrainingConfig, vec_env: Any, out: Path, initial: BaseAlgorithm | None
+) -> BaseAlgorithm:
+    """A new model for ``config`` on ``vec_env`` (with the policy weights of ``initial`` if
+    given); the curve of an earlier run in ``out`` is removed."""
+    probe_env = make(config.env_id, **config.full_env_kwargs())
+    model = build_model(config, vec_env, probe_env, out)
+    probe_env.close()
+    if initial is not None:
+        model.policy.load_state_dict(initial.policy.state_dict())
+    (out / CURVE_FILE).unlink(missing_ok=True)
+    return model
+
+
+def _resumed_model(
+    config: TrainingConfig, vec_env: Any, out: Path, resumed_from: Path
+) -> BaseAlgorithm:
+    """The model saved at ``resumed_from`` on ``vec_env``, reseeded with ``seed + timesteps``
+    and with its replay buffer (off-policy) loaded; curve rows after its timesteps dropped."""
+    model = ALGORITHMS[config.algo].load(
+        str(resumed_from),
+        env=vec_env,
+        device="cpu",
+        tensorboard_log=str(out / TENSORBOARD_DIR),
+    )
+    start_timesteps = int(model.num_timesteps)
+    model.set_random_seed(config.seed + start_timesteps)
+    if isinstance(model, OffPolicyAlgorithm):
+        buffer = out / CHECKPOINT_DIR / f"model_replay_buffer_{start_timesteps}_steps.pkl"
+        if buffer.is_file():
+            model.load_replay_buffer(str(buffer))
+    truncate_curve(out / CURVE_FILE, start_timesteps)
+    return model
+
+
+def _training_callbacks(
+    config: TrainingConfig,
+    out: Path,
+    model: BaseAlgorithm,
+    n_slots: int,
+    progress: bool,
+    on_evaluation: Callable[[int, dict[str, float]], None] | None,
+) -> tuple[list[Any], PeriodicEvaluationCallback]:
+    """The callbacks of ``model.learn`` (progress bar, checkpoints every ``checkpoint_freq``
+    timesteps over ``n_slots`` VecEnv slots, evaluations) and the evaluation callback."""
     callbacks: list[Any] = [TqdmProgressCallback(config.timesteps, disable=not progress)]
     if config.checkpoint_freq > 0:
         callbacks.append(
@@ -523,36 +604,24 @@ def train(
                 save_replay_buffer=isinstance(model, OffPolicyAlgorithm),
             )
         )
+    env_kwargs = config.full_env_kwargs()
     evaluation = PeriodicEvaluationCallback(
         make_env=lambda: make(config.env_id, **env_kwargs),
         seeds=evaluation_seeds(config.eval_episodes),
         eval_freq=config.eval_freq if config.eval_freq > 0 else 10 * config.timesteps,
-        curve_path=curve_path,
+        curve_path=out / CURVE_FILE,
         on_result=on_evaluation,
     )
     callbacks.append(evaluation)
-    model.learn(
-        total_timesteps=config.timesteps - start_timesteps,
-        callback=callbacks,
-        reset_num_timesteps=resume is None,
-        tb_log_name=config.algo,
-    )
-    model.save(str(model_path))
+    return callbacks, evaluation
+
+
+def _save_trained_model(config: TrainingConfig, out: Path, model: BaseAlgorithm) -> Path:
+    """Save ``model`` (and its replay buffer, off-policy with checkpoints) and ``config.json``
+    with its trained timesteps; returns the ``config.json`` path."""
+    model.save(str(out / MODEL_FILE))
     if isinstance(model, OffPolicyAlgorithm) and config.checkpoint_freq > 0:
         model.save_replay_buffer(
             str(out / CHECKPOINT_DIR / f"model_replay_buffer_{model.num_timesteps}_steps.pkl")
         )
-    config_path = write_run_config(out, config, int(model.num_timesteps))
-    vec_env.close()
-    if evaluation.env is not None:
-        evaluation.env.close()
-    return TrainingResult(
-        model_path=model_path,
-        config_path=config_path,
-        curve_path=curve_path,
-        resumed_from=resumed_from,
-        start_timesteps=start_timesteps,
-        timesteps=int(model.num_timesteps),
-        wall_seconds=time.perf_counter() - start,
-        last_evaluation=evaluation.last_summary,
-    )
+    return write_run_config(out, config, int(model.num_timesteps))
