@@ -37,8 +37,9 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from infoseek.envs import registry
 from infoseek.experiments.arguments import (
@@ -49,6 +50,9 @@ from infoseek.experiments.arguments import (
     key_value,
 )
 
+if TYPE_CHECKING:
+    from infoseek.baselines.training import TrainingConfig, TrainingResult
+
 __all__ = ["add_train_arguments", "run_train"]
 
 #: Exit code of an interrupted (Ctrl-C) run (the checkpoints are kept; a rerun resumes).
@@ -57,6 +61,15 @@ EXIT_INTERRUPTED = 130
 
 def add_train_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``infoseek train``."""
+    _add_run_arguments(parser)
+    _add_space_arguments(parser)
+    add_environment_overrides(parser)
+    _add_training_arguments(parser)
+    _add_imitation_arguments(parser)
+
+
+def _add_run_arguments(parser: argparse.ArgumentParser) -> None:
+    """What is trained, for how long, where to, and in how many environment copies."""
     parser.add_argument(
         "--algo",
         choices=("ppo", "sac", "td3", "dagger"),
@@ -84,6 +97,10 @@ def add_train_arguments(parser: argparse.ArgumentParser) -> None:
         default=0,
         help="worker processes stepping the copies (default 0: in this process)",
     )
+
+
+def _add_space_arguments(parser: argparse.ArgumentParser) -> None:
+    """The policy's action space and the observation features its network reads."""
     parser.add_argument(
         "--action-type",
         choices=("continuous", "discrete"),
@@ -97,7 +114,10 @@ def add_train_arguments(parser: argparse.ArgumentParser) -> None:
         help="observation features inside the network: scaled observation plus body-frame "
         "geometry (default), or the scaled observation only",
     )
-    add_environment_overrides(parser)
+
+
+def _add_training_arguments(parser: argparse.ArgumentParser) -> None:
+    """Hyperparameters, evaluations, checkpoints, threads, progress and initial weights."""
     parser.add_argument(
         "--hyper",
         type=key_value,
@@ -131,6 +151,10 @@ def add_train_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--init", type=Path, default=None, help="start from this model's weights (ppo only)"
     )
+
+
+def _add_imitation_arguments(parser: argparse.ArgumentParser) -> None:
+    """The group of options that only ``--algo dagger`` reads."""
     imitation = parser.add_argument_group("imitation (--algo dagger)")
     imitation.add_argument(
         "--expert", default="pairwise", help="planner imitated (default pairwise)"
@@ -152,11 +176,14 @@ def add_train_arguments(parser: argparse.ArgumentParser) -> None:
 def run_train(args: argparse.Namespace) -> int:
     """Train (or resume) the run described by ``args``; returns the exit code.
 
+    Args:
+        args: The parsed options of ``infoseek train``.
+
     Raises:
         ValueError: invalid arguments or an incompatible existing run directory.
     """
     try:
-        from infoseek.baselines.training import TrainingConfig, train
+        from infoseek.baselines.training import train
     except ImportError as error:
         raise ValueError(
             f"infoseek train needs the optional RL dependencies (pip install 'infoseek[rl]'): "
@@ -168,16 +195,53 @@ def run_train(args: argparse.Namespace) -> int:
     env_kwargs = environment_kwargs(args)
     if args.algo == "dagger":
         return _run_imitation(args, env_kwargs)
-    if args.timesteps is None:
-        raise ValueError(f"--timesteps is required with --algo {args.algo}")
+    config = _training_config(args, env_kwargs)
+    if config.init_from is not None:
+        from infoseek.baselines.training import check_initial_model
+
+        check_initial_model(config)
+    print(
+        f"train {config.algo} on {config.env_id} ({config.n_agents} agents, "
+        f"{config.action_type} actions), {config.timesteps} timesteps, seed {config.seed} "
+        f"-> {args.out}",
+        flush=True,
+    )
+    try:
+        result = train(
+            config, args.out, progress=not args.no_progress, on_evaluation=_print_evaluation
+        )
+    except KeyboardInterrupt:
+        print(
+            f"infoseek train: interrupted; checkpoints are in {args.out}, rerun the same "
+            "command to resume",
+            file=sys.stderr,
+        )
+        return EXIT_INTERRUPTED
+    _print_training_result(result, config.timesteps)
+    return 0
+
+
+def _hyperparameters(pairs: Sequence[tuple[str, object]]) -> dict[str, object]:
+    """The ``--hyper KEY=VALUE`` overrides (``(key, value)`` pairs) as a dictionary; a key may
+    repeat with the same value, not with another (ValueError)."""
     hyper: dict[str, object] = {}
-    for key, value in args.hyper:
+    for key, value in pairs:
         if key in hyper and hyper[key] != value:
             raise ValueError(f"--hyper {key} given twice ({hyper[key]!r} and {value!r})")
         hyper[key] = value
+    return hyper
+
+
+def _training_config(args: argparse.Namespace, env_kwargs: dict[str, object]) -> TrainingConfig:
+    """The RL run (``ppo``/``sac``/``td3``) that ``args`` describe, its options checked."""
+    from infoseek.baselines.training import TrainingConfig
+
+    if args.timesteps is None:
+        raise ValueError(f"--timesteps is required with --algo {args.algo}")
+    hyper = _hyperparameters(args.hyper)
     if args.torch_threads is not None and args.torch_threads < 1:
         raise ValueError(f"--torch-threads must be >= 1, got {args.torch_threads}")
-    config = TrainingConfig(
+    return TrainingConfig(
         algo=args.algo,
         env_id=args.env,
         n_agents=args.agents,
@@ -195,42 +259,27 @@ def run_train(args: argparse.Namespace) -> int:
         features=args.features,
         init_from=None if args.init is None else str(args.init),
     )
-    if config.init_from is not None:
-        from infoseek.baselines.training import check_initial_model
 
-        check_initial_model(config)
+
+def _print_evaluation(timesteps: int, summary: dict[str, float]) -> None:
+    """One line per evaluation during training."""
     print(
-        f"train {config.algo} on {config.env_id} ({config.n_agents} agents, "
-        f"{config.action_type} actions), {config.timesteps} timesteps, seed {config.seed} "
-        f"-> {args.out}",
+        f"  eval @ {timesteps}: entropy reduction {summary['mean_entropy_reduction']:.3f}, "
+        f"final posterior mass {summary['mean_final_posterior_mass']:.3f}, "
+        f"mean posterior mass {summary['mean_posterior_mass']:.3f}",
         flush=True,
     )
 
-    def report(timesteps: int, summary: dict[str, float]) -> None:
-        print(
-            f"  eval @ {timesteps}: entropy reduction {summary['mean_entropy_reduction']:.3f}, "
-            f"final posterior mass {summary['mean_final_posterior_mass']:.3f}, "
-            f"mean posterior mass {summary['mean_posterior_mass']:.3f}",
-            flush=True,
-        )
 
-    try:
-        result = train(config, args.out, progress=not args.no_progress, on_evaluation=report)
-    except KeyboardInterrupt:
-        print(
-            f"infoseek train: interrupted; checkpoints are in {args.out}, rerun the same "
-            "command to resume",
-            file=sys.stderr,
-        )
-        return EXIT_INTERRUPTED
+def _print_training_result(result: TrainingResult, timesteps: int) -> None:
+    """What a finished (or already complete) run of ``timesteps`` timesteps resumed and wrote."""
     if result.resumed_from is not None:
         print(f"resumed from {result.resumed_from} at {result.start_timesteps} timesteps")
-    if result.start_timesteps >= config.timesteps and result.last_evaluation is None:
+    if result.start_timesteps >= timesteps and result.last_evaluation is None:
         print(f"{result.model_path} already has {result.timesteps} timesteps; nothing to do")
     print(f"wrote {result.model_path} ({result.timesteps} timesteps, {result.wall_seconds:.1f} s)")
     print(f"wrote {result.config_path}")
     print(f"training curve: {result.curve_path}")
-    return 0
 
 
 def _run_imitation(args: argparse.Namespace, env_kwargs: dict[str, object]) -> int:
