@@ -219,29 +219,15 @@ def beacon_grid_page(results: str | os.PathLike[str], page: str | os.PathLike[st
     trials, provenance = read_results(results)
     if not trials:
         raise ValueError(f"{results}: the beacon grid results hold no trials")
-    config = provenance["config"]
-    steps = int(config["steps"])
+    steps = int(provenance["config"]["steps"])
     groups = _groups(trials)
-    settings = _settings(config, trials[0].n_agents)
+    settings = _settings(provenance["config"], trials[0].n_agents)
     radius = float(settings.localization_radius)
-    grid = provenance["grid"]
-    machine = provenance["machine"]
-    walls = np.array([t.wall_time for t in trials])
-    side = float(settings.space.high[0] - settings.space.low[0]) / grid["cells"]
+    side = float(settings.space.high[0] - settings.space.low[0]) / provenance["grid"]["cells"]
     return page_text(
         [
             "# The beacon's particle filter against the exact posterior",
-            _INTRO.format(
-                particles=int(settings.n_particles),
-                floor=float(settings.filter_sensor.max_snr),
-                radius=radius,
-                mass=LOCALISED_MASS,
-                last=min(len(g) for g in groups.values()) - 1,
-                cells=grid["cells"],
-                psi=grid["orientation_cells"],
-                side=side,
-                prune=grid["prune"],
-            ),
+            _intro(settings, provenance["grid"], groups, side),
             "## Commands",
             f"The study (it reruns the episodes of `{provenance['store']}`), the resolution "
             "check, and this page from their results:",
@@ -256,15 +242,7 @@ def beacon_grid_page(results: str | os.PathLike[str], page: str | os.PathLike[st
             f"localised far from the target when the MMSE is more than {radius:g} from it at "
             "the step it localises:",
             _ttl_table(groups, steps, radius),
-            "## Mass within the radius and MMSE error by step",
-            "Mean (quartiles 25 %, 50 %, 75 %) over the trials; the mass is within the radius "
-            "of each posterior's own MMSE position, the error that position's distance to the "
-            "target. Once a posterior is narrower than a cell, the exact MMSE is a weighted "
-            "mean of a few cell centres, and its error is then about the target's distance to "
-            f"the nearest centre ({_CELL_FLOOR * side:.3f} units on average for a target "
-            "uniform in its cell), a floor of the grid, not of the posterior; the filter's "
-            "particles have no such floor:",
-            _by_step_table(groups),
+            *_by_step_section(groups, side),
             "## The exact posterior's orientation",
             "Axial error of the exact posterior's orientation estimate (the axial mean), median "
             f"over the trials whose exact posterior holds at least {LOCALISED_MASS:g} within the "
@@ -272,15 +250,61 @@ def beacon_grid_page(results: str | os.PathLike[str], page: str | os.PathLike[st
             _orientation_table(groups),
             *_resolution_section(results, trials, provenance),
             "## Provenance",
-            f"`{display_path(results / RESULTS_FILE)}`: written by `{provenance['command']}` "
-            f"in {provenance['wall_time']:g} s (a rerun: median {np.median(walls):.1f} s, "
-            f"longest {walls.max():.1f} s, planner and grid) with {provenance['workers']} "
-            f"worker(s) on {machine['cpu']} ({machine['cpus']} logical CPUs, Python "
-            f"{machine['python']}), pinned numerics "
-            f"{'on' if provenance['numerics'].get('pinned') else 'off'}; the truth's grid cell "
-            f"was still active at the end in {sum(t.truth_active for t in trials)} of "
-            f"{len(trials)} trials.",
+            _provenance_paragraph(results, trials, provenance),
         ]
+    )
+
+
+def _intro(
+    settings: Any, grid: dict[str, Any], groups: dict[str, list[BeaconGridTrial]], side: float
+) -> str:
+    """The page's opening paragraph: the filter, the trials rerun and the exact posterior's
+    ``grid`` (of cells ``side`` units wide) from the environment's ``settings``."""
+    return _INTRO.format(
+        particles=int(settings.n_particles),
+        floor=float(settings.filter_sensor.max_snr),
+        radius=float(settings.localization_radius),
+        mass=LOCALISED_MASS,
+        last=min(len(g) for g in groups.values()) - 1,
+        cells=grid["cells"],
+        psi=grid["orientation_cells"],
+        side=side,
+        prune=grid["prune"],
+    )
+
+
+def _by_step_section(groups: dict[str, list[BeaconGridTrial]], side: float) -> list[str]:
+    """Mass within the radius and MMSE error by step, with the grid's error floor for cells
+    ``side`` units wide."""
+    return [
+        "## Mass within the radius and MMSE error by step",
+        "Mean (quartiles 25 %, 50 %, 75 %) over the trials; the mass is within the radius "
+        "of each posterior's own MMSE position, the error that position's distance to the "
+        "target. Once a posterior is narrower than a cell, the exact MMSE is a weighted "
+        "mean of a few cell centres, and its error is then about the target's distance to "
+        f"the nearest centre ({_CELL_FLOOR * side:.3f} units on average for a target "
+        "uniform in its cell), a floor of the grid, not of the posterior; the filter's "
+        "particles have no such floor:",
+        _by_step_table(groups),
+    ]
+
+
+def _provenance_paragraph(
+    results: Path, trials: Sequence[BeaconGridTrial], provenance: dict[str, Any]
+) -> str:
+    """Who wrote the results, how long the reruns took, where, and how often the truth's cell
+    stayed active."""
+    machine = provenance["machine"]
+    walls = np.array([t.wall_time for t in trials])
+    return (
+        f"`{display_path(results / RESULTS_FILE)}`: written by `{provenance['command']}` "
+        f"in {provenance['wall_time']:g} s (a rerun: median {np.median(walls):.1f} s, "
+        f"longest {walls.max():.1f} s, planner and grid) with {provenance['workers']} "
+        f"worker(s) on {machine['cpu']} ({machine['cpus']} logical CPUs, Python "
+        f"{machine['python']}), pinned numerics "
+        f"{'on' if provenance['numerics'].get('pinned') else 'off'}; the truth's grid cell "
+        f"was still active at the end in {sum(t.truth_active for t in trials)} of "
+        f"{len(trials)} trials."
     )
 
 

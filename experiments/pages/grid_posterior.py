@@ -216,9 +216,7 @@ def grid_posterior_page(results: str | os.PathLike[str], page: str | os.PathLike
     config = provenance["config"]
     steps = int(config["steps"])
     groups = _groups(trials)
-    size = min(len(g) for g in groups.values())
     settings = _settings(config, trials[0].n_agents)
-    machine = provenance["machine"]
     return page_text(
         [
             "# The particle filter against the exact posterior",
@@ -226,7 +224,7 @@ def grid_posterior_page(results: str | os.PathLike[str], page: str | os.PathLike
                 radius=float(settings.localization_radius),
                 particles=int(settings.n_particles),
                 mass=LOCALISED_MASS,
-                last=size - 1,
+                last=min(len(g) for g in groups.values()) - 1,
                 agents=trials[0].n_agents,
                 cells=provenance["grid"]["cells"],
             ),
@@ -256,12 +254,20 @@ def grid_posterior_page(results: str | os.PathLike[str], page: str | os.PathLike
             _bound_table(groups, settings, steps),
             _CARRIES,
             "## Provenance",
-            f"`{display_path(results / 'grid_posterior.json')}`: written by "
-            f"`{provenance['command']}` in {provenance['wall_time']:g} s with "
-            f"{provenance['workers']} worker(s) on {machine['cpu']} ({machine['cpus']} logical "
-            f"CPUs, Python {machine['python']}), pinned numerics "
-            f"{'on' if provenance['numerics'].get('pinned') else 'off'}; the grid: "
-            f"{provenance['grid']['cells']} cells per axis, cells pruned "
-            f"{provenance['grid']['prune']:g} nats below the mode.",
+            _provenance_paragraph(results, provenance),
         ]
+    )
+
+
+def _provenance_paragraph(results: Path, provenance: dict[str, Any]) -> str:
+    """Who wrote the results, in how long, where, and the grid they used."""
+    machine = provenance["machine"]
+    return (
+        f"`{display_path(results / 'grid_posterior.json')}`: written by "
+        f"`{provenance['command']}` in {provenance['wall_time']:g} s with "
+        f"{provenance['workers']} worker(s) on {machine['cpu']} ({machine['cpus']} logical "
+        f"CPUs, Python {machine['python']}), pinned numerics "
+        f"{'on' if provenance['numerics'].get('pinned') else 'off'}; the grid: "
+        f"{provenance['grid']['cells']} cells per axis, cells pruned "
+        f"{provenance['grid']['prune']:g} nats below the mode."
     )

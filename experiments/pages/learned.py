@@ -12,7 +12,11 @@ from infoseek.experiments.analysis import format_p_value
 from infoseek.experiments.columns import read_trials
 from infoseek.experiments.pages.bench_commands import bench_commands
 from infoseek.experiments.pages.markdown import code_block, display_path, figure, page_text, table
-from infoseek.experiments.pages.provenance import read_provenance, stores_section
+from infoseek.experiments.pages.provenance import (
+    StoreProvenance,
+    read_provenance,
+    stores_section,
+)
 from infoseek.experiments.policy_labels import portable_label
 from infoseek.experiments.studies.learned import (
     BENCHES,
@@ -46,6 +50,26 @@ _INTRO = (
     "a setting is the one whose last training evaluation (50 seeded episodes kept apart from "
     "the bench's seeds) had the highest mean posterior mass: chosen before the bench."
 )
+
+
+def _commands(results: Path, page: Path, provenances: Sequence[StoreProvenance]) -> list[str]:
+    """The study in one command, then step by step: training, fine-tuning, each bench store
+    (``provenances`` in the order of ``BENCHES``) with its claims, and this page."""
+    commands = [
+        f"infoseek reproduce learned --workers 2 --out {display_path(results)} "
+        f"--page {display_path(page)}",
+        "# the same, step by step:",
+        *_train_commands(results),
+        "infoseek " + " ".join(fine_tune_command(display_path(results))),
+    ]
+    for provenance, bench in zip(provenances, BENCHES, strict=True):
+        store = results / bench.name
+        commands += bench_commands(store, provenance.manifest["config"], provenance.groups)
+        commands.append(f"infoseek claims {display_path(store)}")
+    commands.append(
+        f"infoseek page learned --results {display_path(results)} --out {display_path(page)}"
+    )
+    return commands
 
 
 def _train_commands(results: Path) -> list[str]:
@@ -233,20 +257,7 @@ def learned_page(results: str | os.PathLike[str], page: str | os.PathLike[str]) 
     """
     results, page = Path(results), Path(page)
     provenances = [read_provenance(results / bench.name) for bench in BENCHES]
-    commands = [
-        f"infoseek reproduce learned --workers 2 --out {display_path(results)} "
-        f"--page {display_path(page)}",
-        "# the same, step by step:",
-        *_train_commands(results),
-        "infoseek " + " ".join(fine_tune_command(display_path(results))),
-    ]
-    for provenance, bench in zip(provenances, BENCHES, strict=True):
-        store = results / bench.name
-        commands += bench_commands(store, provenance.manifest["config"], provenance.groups)
-        commands.append(f"infoseek claims {display_path(store)}")
-    commands.append(
-        f"infoseek page learned --results {display_path(results)} --out {display_path(page)}"
-    )
+    commands = _commands(results, page, provenances)
     bearings = _comparisons(results, "bench_bearings", "pairwise", "bearings_pairwise")
     single = _comparisons(results, "bench_bearings", "single", "bearings_pairwise")
     grid_only = _comparisons(
