@@ -52,58 +52,32 @@ def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_demo(args: argparse.Namespace) -> int:
-    """Run the demo episode described by ``args``; returns the exit code."""
-    if args.agents < 1:
-        raise ValueError(f"--agents must be >= 1, got {args.agents}")
-    if not args.fps > 0:
-        raise ValueError(f"--fps must be > 0, got {args.fps}")
-    if args.particles < 1:
-        raise ValueError(f"--particles must be >= 1, got {args.particles}")
-    check_seed(args.seed)
+    """Run the demo episode described by ``args``; returns the exit code.
+
+    Args:
+        args: The parsed options of ``infoseek demo``.
+    """
+    _check_arguments(args)
     out = args.out if args.out is not None else Path("infoseek-out")
     check_writable_directory(out)
-    kwargs = {"n_agents": args.agents, "n_particles": args.particles, "render_mode": "rgb_array"}
-    if args.steps is not None:
-        if args.steps < 1:
-            raise ValueError(f"--steps must be >= 1, got {args.steps}")
-        kwargs["max_cycles"] = args.steps
-    env = make_env(args.env, **kwargs)
+    env = make_env(args.env, **_environment_kwargs(args))
     observations, infos = env.reset(seed=args.seed)
     policy = make_policy(args.planner, env, seed=args.seed)
     out.mkdir(parents=True, exist_ok=True)
     stem = f"demo-{args.env}-{args.planner}-{args.agents}agents-seed{args.seed}"
 
     frames = [env.render()]
-    radius = env.unwrapped.config.localization_radius
-    first = env.possible_agents[0]
     print(
         f"{args.env}: {args.agents} x {args.planner}, {args.particles} particles, seed {args.seed}"
     )
-    mass_header = f"mass<={radius:g}"
+    mass_header = f"mass<={env.unwrapped.config.localization_radius:g}"
     print(f"{'step':>4} {mass_header:>9} {'error':>8} {'entropy':>8} {'plan ms':>8}", flush=True)
     bar = progress_bar(
         int(env.unwrapped.config.max_cycles), "demo", None if args.progress else False, unit="step"
     )
     interrupted = False
     try:
-        step = 0
-        while env.agents:
-            start = time.perf_counter()
-            actions = policy.act(observations, infos)
-            plan_ms = 1e3 * (time.perf_counter() - start)
-            observations, _, _, _, infos = env.step(actions)
-            step += 1
-            truth = env.unwrapped.true_target()
-            info = infos[first]
-            view = env.unwrapped.belief(first)
-            estimate = np.average(view.particles[:, :2], weights=view.weights, axis=0)
-            error = float(np.hypot(*(estimate - truth[:2])))
-            bar.write(
-                f"{step:>4} {info['posterior_mass']:>9.3f} {error:>8.2f} "
-                f"{info['entropy']:>8.3f} {plan_ms:>8.1f}"
-            )
-            frames.append(env.render())
-            bar.update(1)
+        _play(env, policy, observations, infos, frames, bar)
     except KeyboardInterrupt:
         interrupted = True
     finally:
@@ -120,6 +94,65 @@ def run_demo(args: argparse.Namespace) -> int:
     print(f"wrote {gif_path}")
     print(f"wrote {png_path}")
     return 130 if interrupted else 0
+
+
+def _check_arguments(args: argparse.Namespace) -> None:
+    """Refuse a non-positive fleet, frame rate or particle count, and a bad seed."""
+    if args.agents < 1:
+        raise ValueError(f"--agents must be >= 1, got {args.agents}")
+    if not args.fps > 0:
+        raise ValueError(f"--fps must be > 0, got {args.fps}")
+    if args.particles < 1:
+        raise ValueError(f"--particles must be >= 1, got {args.particles}")
+    check_seed(args.seed)
+
+
+def _environment_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """The keywords of the demo's environment (rendered to RGB arrays); ``--steps`` checked."""
+    kwargs = {"n_agents": args.agents, "n_particles": args.particles, "render_mode": "rgb_array"}
+    if args.steps is not None:
+        if args.steps < 1:
+            raise ValueError(f"--steps must be >= 1, got {args.steps}")
+        kwargs["max_cycles"] = args.steps
+    return kwargs
+
+
+def _play(
+    env: Any,
+    policy: Any,
+    observations: dict[str, Any],
+    infos: dict[str, Any],
+    frames: list[np.ndarray],
+    bar: Any,
+) -> None:
+    """Step ``env`` with ``policy`` from ``observations`` and ``infos`` to the end of the
+    episode: one line per step written above ``bar``, each rendered frame appended to
+    ``frames`` (so an interrupted episode keeps the frames it has)."""
+    step = 0
+    while env.agents:
+        start = time.perf_counter()
+        actions = policy.act(observations, infos)
+        plan_ms = 1e3 * (time.perf_counter() - start)
+        observations, _, _, _, infos = env.step(actions)
+        step += 1
+        bar.write(_step_line(env, step, infos, plan_ms))
+        frames.append(env.render())
+        bar.update(1)
+
+
+def _step_line(env: Any, step: int, infos: dict[str, Any], plan_ms: float) -> str:
+    """Step, agent 0's posterior mass (from its ``infos``), its MMSE estimate's error against
+    the true target, its belief entropy and the planning time."""
+    first = env.possible_agents[0]
+    truth = env.unwrapped.true_target()
+    info = infos[first]
+    view = env.unwrapped.belief(first)
+    estimate = np.average(view.particles[:, :2], weights=view.weights, axis=0)
+    error = float(np.hypot(*(estimate - truth[:2])))
+    return (
+        f"{step:>4} {info['posterior_mass']:>9.3f} {error:>8.2f} "
+        f"{info['entropy']:>8.3f} {plan_ms:>8.1f}"
+    )
 
 
 def _save_atomically(frames: list[np.ndarray], path: Path, format: str, **options: Any) -> None:
