@@ -49,6 +49,29 @@ class BenchmarlRun:
     critic_in_keys: tuple[str | tuple[str, ...], ...]
     seconds: float
 
+    @classmethod
+    def from_experiment(
+        cls, experiment: Experiment, algorithm: str, seconds: float
+    ) -> BenchmarlRun:
+        """What a finished experiment did: iterations, frames, last mean return, the task's
+        state shape and the critic's input keys.
+
+        Args:
+            experiment: The BenchMARL experiment, after ``run()``.
+            algorithm: Its algorithm (``"mappo"`` or ``"ippo"``).
+            seconds: The wall time of its construction and run.
+        """
+        state_spec = experiment.state_spec
+        return cls(
+            algorithm=algorithm,
+            iterations=int(experiment.n_iters_performed),
+            frames=int(experiment.total_frames),
+            mean_return=float(experiment.mean_return),
+            state_shape=tuple(state_spec["state"].shape) if state_spec is not None else (),
+            critic_in_keys=tuple(experiment.losses[GROUP].critic_network.in_keys),
+            seconds=seconds,
+        )
+
 
 def experiment_config(
     *,
@@ -133,16 +156,7 @@ def train(
         )
         experiment.run()
         seconds = time.perf_counter() - start
-    state_spec = experiment.state_spec
-    return BenchmarlRun(
-        algorithm=algorithm,
-        iterations=int(experiment.n_iters_performed),
-        frames=int(experiment.total_frames),
-        mean_return=float(experiment.mean_return),
-        state_shape=tuple(state_spec["state"].shape) if state_spec is not None else (),
-        critic_in_keys=tuple(experiment.losses[GROUP].critic_network.in_keys),
-        seconds=seconds,
-    )
+    return BenchmarlRun.from_experiment(experiment, algorithm, seconds)
 
 
 def main(argv: list[str] | None = None) -> int:
