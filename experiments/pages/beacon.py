@@ -146,8 +146,9 @@ def beacon_v1_page(results: str | os.PathLike[str], page: str | os.PathLike[str]
         "sections, often beside other work, so these are upper bounds on an idle machine's "
         "(the two stores were written on different days by different versions of the code: "
         "their provenance sections); "
-        "`infoseek timing --only env_step_beacon_4 --only env_step_beacon_v1_4` measures the "
-        "step alone (random actions).",
+        "`infoseek timing --only env_step_beacon_v1_4_planned` measures `beacon_v1`'s step "
+        "alone along planned episodes (`env_step_beacon_4` and `env_step_beacon_v1_4`: random "
+        "actions, which seldom trigger the moves).",
         _step_time_table(stores),
     ]
     return page_text(
