@@ -134,7 +134,9 @@ def _full_grid(
                     for v in range(3):
                         padded[row + u, col + v] += scaled * weights_b[b, i, v]
             _fold(padded, periodic)
-            histograms[a, b] = padded[1 : q + 1, 1 : q + 1]
+            for u in range(q):  # a loop, not a slice copy: numba's slice copy compiles its
+                for v in range(q):  # shape-mismatch message (seconds of a first run)
+                    histograms[a, b, u, v] = padded[u + 1, v + 1]
     return histograms
 
 
