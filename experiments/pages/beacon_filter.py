@@ -14,6 +14,7 @@ import json
 import os
 from pathlib import Path
 
+from infoseek.experiments.environments import changed_settings, env_defaults
 from infoseek.experiments.pages.markdown import code_block, display_path, page_text, table
 from infoseek.experiments.pages.paired_stores import LabelledStore, paired_table
 from infoseek.experiments.pages.provenance import StoreProvenance, stores_section
@@ -95,6 +96,39 @@ def _pairwise_section(results: Path) -> tuple[list[str], list[str], list[StorePr
     return comparison.commands, blocks, comparison.provenances
 
 
+_PARTICLES_INTRO = (
+    "`beacon_v1`'s two filter settings with the particle count varied: the stores above that "
+    "differ from `beacon_v0` by those settings and `n_particles` only, each paired with the "
+    "one at `beacon_v0`'s {default} particles (the count `beacon_v1` uses), trial by trial. "
+    "Where more particles no longer localise sooner, the particle count is not what limits "
+    "the filter."
+)
+
+
+def _particles_section(results: Path) -> list[str]:
+    """The particle-count blocks for ``beacon_v1``'s settings (empty with fewer than two such
+    stores or none at the default count)."""
+    settings = changed_settings("beacon_v1", "beacon_v0")
+    default = int(env_defaults("beacon_v0")["n_particles"])
+    chosen: dict[int, Path] = {}
+    for child in sorted(results.iterdir()):
+        if not (child / "manifest.json").is_file():
+            continue
+        options = dict(read_manifest(child)["config"].get("env_kwargs", {}))
+        particles = int(options.pop("n_particles", default))
+        if options == settings:
+            chosen[particles] = child
+    if len(chosen) < 2 or default not in chosen:
+        return []
+    stores = [LabelledStore(str(n), chosen[n]) for n in sorted(chosen)]
+    comparison = paired_table(stores, chosen[default], "particles")
+    return [
+        "## beacon_v1's filter against the particle count",
+        _PARTICLES_INTRO.format(default=default),
+        table(comparison.header, comparison.rows),
+    ]
+
+
 def beacon_filter_page(results: str | os.PathLike[str], page: str | os.PathLike[str]) -> str:
     """The Markdown of the beacon filter-settings page.
 
@@ -118,6 +152,7 @@ def beacon_filter_page(results: str | os.PathLike[str], page: str | os.PathLike[
             code_block("\n".join(commands), "bash"),
             "## Results",
             table(comparison.header, comparison.rows),
+            *_particles_section(results),
             *pairwise_blocks,
             stores_section(comparison.provenances + pairwise_provenances),
         ]
