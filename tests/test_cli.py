@@ -82,6 +82,20 @@ def test_timing_smoke(capsys: pytest.CaptureFixture[str]) -> None:
     assert "env_step_bearings_4" in capsys.readouterr().out
 
 
+def test_timing_planned_beacon_v1_step_smoke(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The beacon issue's step benchmark times env.step along a planned episode: one timed
+    step after the warm-up, its mean equal to its median for one call, and the 5 ms target."""
+    out = tmp_path / "timing.json"
+    argv = ["timing", "--repeats", "1", "--only", "env_step_beacon_v1_4_planned"]
+    assert main([*argv, "--json", str(out)]) == 0
+    assert "env_step_beacon_v1_4_planned" in capsys.readouterr().out
+    row = json.loads(out.read_text())["results"]["env_step_beacon_v1_4_planned"]
+    assert row["calls"] == 1 and row["target_ms"] == 5.0
+    assert row["mean_ms"] == pytest.approx(row["median_ms"]) and row["median_ms"] > 0.0
+
+
 def test_timing_alternates_with_a_baseline_checkout(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
