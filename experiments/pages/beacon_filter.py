@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from pathlib import Path
 
 from infoseek.experiments.environments import changed_settings, env_defaults
@@ -55,12 +56,19 @@ def _label(store: Path) -> str:
     return ", ".join(f"`{key}={json.dumps(value)}`" for key, value in sorted(options.items()))
 
 
+def _natural_key(name: str) -> list[tuple[int, str]]:
+    """``name`` ordered with its digit runs as numbers (``particles_4000`` before
+    ``particles_16000``)."""
+    return [(int(part), "") if part.isdigit() else (-1, part) for part in re.split(r"(\d+)", name)]
+
+
 def _stores(results: Path) -> list[LabelledStore]:
-    """The reference store first, then every other store under ``results`` by name."""
+    """The reference store first, then every other store under ``results`` by name (numbers
+    in names by value)."""
     found = sorted(child for child in results.iterdir() if (child / "manifest.json").is_file())
     if not any(child.name == REFERENCE_STORE for child in found):
         raise ValueError(f"{results}: no {REFERENCE_STORE}/ results store")
-    found.sort(key=lambda child: (child.name != REFERENCE_STORE, child.name))
+    found.sort(key=lambda child: (child.name != REFERENCE_STORE, _natural_key(child.name)))
     return [LabelledStore(_label(child), child) for child in found]
 
 
