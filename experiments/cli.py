@@ -307,42 +307,79 @@ def _numerics_line(numerics: dict[str, Any]) -> str:
     return line
 
 
-#: Each subcommand's one-line help, in the order ``infoseek --help`` lists them.
-_SUBCOMMAND_HELP = {
-    "demo": "run one search episode and write a GIF and a PNG of it",
-    "timing": "measure mutual-information, planning and env-step speed",
-    "bench": "Monte Carlo trials of planners over seeds into a resumable results store",
-    "plot": "the paper's Fig. 1 from a bench results directory",
-    "reproduce": "run a study (the paper's Fig. 1 or 2, beacon, ablation) and draw its figures",
-    "page": "rewrite a study's results page from its stored results (runs no trial)",
-    "claims": "paired statistical tests of the paper's Fig. 1 claims on stored trials",
-    "verify": "rerun stored trials from their seeds and compare them with their records",
-    "train": "train a parameter-shared RL policy (PPO/SAC/TD3) on the entropy reward",
-    "migrate": "bring a results store to the current format (checksums, portable policy labels)",
-}
-
 _AddArguments = Callable[[argparse.ArgumentParser], None]
 _Handler = Callable[[argparse.Namespace], int]
 
 
-def _subcommand_functions() -> dict[str, tuple[_AddArguments, _Handler]]:
-    """Each subcommand's option adder and handler (keys of :data:`_SUBCOMMAND_HELP`).
+def _subcommands() -> list[tuple[str, str, _AddArguments, _Handler]]:
+    """Each subcommand's name, one-line help, option adder and handler, in the order
+    ``infoseek --help`` lists them.
 
-    The names are read when the parser is built, not when this module is imported, so a
-    handler replaced on this module (as tests do) is the one that runs.
+    The functions are looked up when the parser is built, not when this module is imported,
+    so a handler replaced on this module (as tests do) is the one that runs.
     """
-    return {
-        "demo": (add_demo_arguments, run_demo),
-        "timing": (add_timing_arguments, run_timing),
-        "bench": (add_bench_arguments, run_bench_command),
-        "plot": (add_plot_arguments, run_plot_command),
-        "reproduce": (add_reproduce_arguments, run_reproduce_command),
-        "page": (add_page_arguments, run_page_command),
-        "claims": (add_claims_arguments, run_claims),
-        "verify": (add_verify_arguments, run_verify_command),
-        "train": (add_train_arguments, run_train),
-        "migrate": (add_migrate_arguments, run_migrate_command),
-    }
+    return [
+        (
+            "demo",
+            "run one search episode and write a GIF and a PNG of it",
+            add_demo_arguments,
+            run_demo,
+        ),
+        (
+            "timing",
+            "measure mutual-information, planning and env-step speed",
+            add_timing_arguments,
+            run_timing,
+        ),
+        (
+            "bench",
+            "Monte Carlo trials of planners over seeds into a resumable results store",
+            add_bench_arguments,
+            run_bench_command,
+        ),
+        (
+            "plot",
+            "the paper's Fig. 1 from a bench results directory",
+            add_plot_arguments,
+            run_plot_command,
+        ),
+        (
+            "reproduce",
+            "run a study (the paper's Fig. 1 or 2, beacon, ablation) and draw its figures",
+            add_reproduce_arguments,
+            run_reproduce_command,
+        ),
+        (
+            "page",
+            "rewrite a study's results page from its stored results (runs no trial)",
+            add_page_arguments,
+            run_page_command,
+        ),
+        (
+            "claims",
+            "paired statistical tests of the paper's Fig. 1 claims on stored trials",
+            add_claims_arguments,
+            run_claims,
+        ),
+        (
+            "verify",
+            "rerun stored trials from their seeds and compare them with their records",
+            add_verify_arguments,
+            run_verify_command,
+        ),
+        (
+            "train",
+            "train a parameter-shared RL policy (PPO/SAC/TD3) on the entropy reward",
+            add_train_arguments,
+            run_train,
+        ),
+        (
+            "migrate",
+            "bring a results store to the current format (checksums, portable policy labels)",
+            add_migrate_arguments,
+            run_migrate_command,
+        ),
+    ]
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -354,9 +391,7 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    functions = _subcommand_functions()
-    for name, help_text in _SUBCOMMAND_HELP.items():
-        add_arguments, handler = functions[name]
+    for name, help_text, add_arguments, handler in _subcommands():
         subparser = sub.add_parser(name, help=help_text)
         add_arguments(subparser)
         subparser.set_defaults(handler=handler)
