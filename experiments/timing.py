@@ -32,9 +32,9 @@ logical cores, Python, NumPy and the BLAS in use).
   costs most when its filter's moves run, which random actions far from the beacon seldom
   trigger: the beacon study's stores record the step time along planned episodes);
 * ``env_step_beacon_v1_4_planned``: one ``env.step`` of ``beacon_v1`` (4 quadrotors, 2000
-  particles) along whole seeded episodes steered by ``PairwiseNodePlanner`` (its ``act`` is not
-  timed), every step of ``ceil(repeats / 40)`` episodes after a warm-up step: the step as the
-  beacon study meets it, moves and all;
+  particles) along seeded episodes (seeds 300, 301, ...) steered by ``PairwiseNodePlanner``
+  (its ``act`` is not timed): the first ``repeats`` steps after a warm-up step, over as many
+  episodes as that takes; the step as the beacon study meets it, moves and all;
 * ``vec_step_bearings_64``, ``vec_step_bearings_64_2_workers``: one ``step`` of
   ``make_vec("bearings_v0", num_envs=64)`` (256 agent slots, random actions, auto-reset), in
   this process and split over two worker processes. With ``env_step_bearings_4`` in the same
@@ -470,12 +470,13 @@ def run_timing(args: argparse.Namespace) -> int:
             continue
         times = results[name]
         q25, median, q75 = np.percentile(times, [25, 50, 75])
+        mean = float(np.mean(times))
         target = TARGETS[name]
         rows[name] = {
             "median_ms": median,
             "q25_ms": q25,
             "q75_ms": q75,
-            "mean_ms": float(np.mean(times)),
+            "mean_ms": mean,
             "calls": len(times),
             "target_ms": target,
         }
@@ -483,7 +484,7 @@ def run_timing(args: argparse.Namespace) -> int:
             "" if target is None else f"{target:>10g} {'met' if median <= target else 'missed'}"
         )
         print(
-            f"{name:<34} {median:>10.2f} {q25:>9.2f} {q75:>9.2f} {np.mean(times):>9.2f} "
+            f"{name:<34} {median:>10.2f} {q25:>9.2f} {q75:>9.2f} {mean:>9.2f} "
             f"{len(times):>6} {verdict}"
         )
     if "mi_single_fast" in rows and "mi_single_general" in rows:
