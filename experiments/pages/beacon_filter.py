@@ -113,19 +113,17 @@ _PARTICLES_INTRO = (
 )
 
 
-def _particles_section(results: Path) -> list[str]:
-    """The particle-count blocks for ``beacon_v1``'s settings (empty with fewer than two such
-    stores or none at the default count)."""
+def _particles_section(stores: list[LabelledStore]) -> list[str]:
+    """The particle-count blocks for ``beacon_v1``'s settings, from the page's ``stores``
+    (empty with fewer than two such stores or none at the default count)."""
     settings = changed_settings("beacon_v1", "beacon_v0")
     default = int(env_defaults("beacon_v0")["n_particles"])
     chosen: dict[int, Path] = {}
-    for child in sorted(results.iterdir()):
-        if not (child / "manifest.json").is_file():
-            continue
-        options = dict(read_manifest(child)["config"].get("env_kwargs", {}))
+    for store in stores:
+        options = dict(read_manifest(store.path)["config"].get("env_kwargs", {}))
         particles = int(options.pop("n_particles", default))
         if options == settings:
-            chosen[particles] = child
+            chosen[particles] = store.path
     if len(chosen) < 2 or default not in chosen:
         return []
     stores = [LabelledStore(str(n), chosen[n]) for n in sorted(chosen)]
@@ -160,7 +158,7 @@ def beacon_filter_page(results: str | os.PathLike[str], page: str | os.PathLike[
             code_block("\n".join(commands), "bash"),
             "## Results",
             table(comparison.header, comparison.rows),
-            *_particles_section(results),
+            *_particles_section(stores),
             *pairwise_blocks,
             stores_section(comparison.provenances + pairwise_provenances),
         ]
