@@ -21,7 +21,9 @@ numerics``). Three rules make a kernel's floating-point results the same on ever
 * **The C library's transcendentals.** ``math.exp``, ``math.log1p``, ``math.atan2`` ... compile
   to calls of the C library, which are exactly what NumPy's ufuncs call in the pinned
   numerical environment (NumPy's SIMD loops switched off), so a kernel reproduces the NumPy
-  expression it replaces bit for bit there.
+  expression it replaces bit for bit there. The exception is the float32 ``atan2f``, whose
+  values differ between C libraries (:mod:`infoseek.envs.arctangent` computes it in IEEE
+  arithmetic instead).
 
 Where a kernel replaces a NumPy reduction it reduces in NumPy's order: :func:`pairwise_sum` is
 NumPy's pairwise summation of a contiguous float64 array (blocks of 128, eight accumulators),

@@ -18,6 +18,7 @@ from PIL import Image
 from infoseek.experiments.analysis import format_p_value, mass_curves
 from infoseek.experiments.cli import build_parser, main
 from infoseek.experiments.columns import TrialView
+from infoseek.experiments.numerics import PINNED
 from infoseek.experiments.plot import fig1_panels
 from infoseek.experiments.record import TrialRecord
 from infoseek.experiments.store import (
@@ -609,6 +610,57 @@ def test_committed_fig1_trials_reproduce_on_this_machine() -> None:
     checked = _cli(["verify", str(FIG1_STORE), "--trials", "1", *groups, "--no-progress"])
     assert checked.returncode == 0, checked.stdout + checked.stderr
     assert "2 stored trial(s) rerun: 2 reproduced exactly" in checked.stdout
+
+
+# Every binary32 function of the C library as the double function rounded to float: what a
+# correctly rounded libm (glibc's CORE-MATH float functions) returns but for ~2^-29 of values.
+_ROUNDED_FLOAT_LIBM = """
+#include <math.h>
+#define F1(f, d) float f(float x) { return (float) d((double) x); }
+#define F2(f, d) float f(float x, float y) { return (float) d((double) x, (double) y); }
+F2(atan2f, atan2) F1(atanf, atan) F1(asinf, asin) F1(acosf, acos) F1(erff, erf) F1(erfcf, erfc)
+F1(expm1f, expm1) F1(log1pf, log1p) F1(cbrtf, cbrt) F1(coshf, cosh) F1(sinhf, sinh)
+F1(tanhf, tanh) F2(hypotf, hypot) F1(expf, exp) F1(logf, log) F2(powf, pow) F1(sinf, sin)
+F1(cosf, cos) F1(tanf, tan) F1(exp2f, exp2) F1(log2f, log2) F1(log10f, log10)
+"""
+
+
+def test_committed_fig1_trial_reproduces_under_a_correctly_rounded_float_libm(
+    tmp_path: Path,
+) -> None:
+    """The stored trials do not depend on the C library's float functions: with every one of
+    them replaced (LD_PRELOAD) by the correctly rounded value, which newer glibc returns and
+    which differs from glibc 2.36's atan2f in about one value in six, trial 0 of pairwise/10
+    still reproduces (it diverged from step 3 while the planners used NumPy's float32 arctan2,
+    which calls the C library's atan2f in the pinned environment)."""
+    compiler = shutil.which("cc") or shutil.which("gcc")
+    if compiler is None or sys.platform != "linux":
+        pytest.skip("needs a C compiler and Linux to build the replacement libm")
+    source = tmp_path / "rounded_float_libm.c"
+    source.write_text(_ROUNDED_FLOAT_LIBM)
+    library = tmp_path / "rounded_float_libm.so"
+    built = subprocess.run(
+        [compiler, "-O2", "-shared", "-fPIC", "-o", str(library), str(source), "-lm"],
+        capture_output=True,
+        text=True,
+    )
+    assert built.returncode == 0, built.stderr
+    probe = "import numpy as np; y = np.array([0x42740099], np.uint32).view(np.float32); "
+    probe += "x = np.array([0x429678C0], np.uint32).view(np.float32); "
+    probe += "print(hex(int(np.arctan2(y, x).view(np.uint32)[0])))"
+    pinned = {k: v for k, v in os.environ.items() if k != "INFOSEEK_NATIVE_NUMERICS"}
+    pinned.update(PINNED, LD_PRELOAD=str(library))
+    replaced = subprocess.run(
+        [sys.executable, "-c", probe], env=pinned, capture_output=True, text=True
+    )
+    assert replaced.stdout.strip() == "0x3f2e68cd", replaced.stderr  # glibc 2.36: 0x3f2e68cc
+    group = ["--group", "pairwise/10"]
+    checked = _cli(
+        ["verify", str(FIG1_STORE), "--trials", "1", *group, "--no-progress"],
+        LD_PRELOAD=str(library),
+    )
+    assert checked.returncode == 0, checked.stdout + checked.stderr
+    assert "1 stored trial(s) rerun: 1 reproduced exactly" in checked.stdout
 
 
 def test_committed_ablation_trial_of_a_switched_planner_reproduces() -> None:

@@ -60,10 +60,12 @@ differences of the normal CDF taken on the accurate side of zero), or, for ``sig
 from __future__ import annotations
 
 import math
+from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
 
+from infoseek.envs.arctangent import arctan2_float32
 from infoseek.envs.sensors.arrays import (
     LOG_SQRT_2PI,
     TWO_PI,
@@ -193,7 +195,11 @@ class BearingSensor:
         """
         dx = particles[:, 0] - poses[..., 0, None]
         dy = particles[:, 1] - poses[..., 1, None]
-        angle = np.arctan2(dy, dx)
+        if dx.dtype == np.float32:  # the planners' predictions: the same bits whatever the libm
+            dy32, dx32 = dy.astype(np.float32, copy=False), dx.astype(np.float32, copy=False)
+            angle = cast(FloatArray, arctan2_float32(dy32, dx32))
+        else:
+            angle = np.arctan2(dy, dx)
         if wrap:
             # atan2 returns (-pi, pi]; map pi to -pi.
             angle[angle >= math.pi] -= TWO_PI
