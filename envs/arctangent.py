@@ -15,7 +15,14 @@ arithmetic compiled without contraction or reassociation (:mod:`infoseek.envs.co
 2.36's values bit for bit, on every x86-64 machine and whatever its C library. The common case
 is written with selects instead of branches, so its loop vectorises (about ten times faster
 than the C library's ``atan2f``); zeros, infinities, NaN and extreme ratios go through the
-scalar code. The algorithm (Sun Microsystems, 1993; float version by Ian Lance Taylor):
+scalar code.
+
+:func:`arctan2_float32`, which the bearing sensor's float32 predictions call, uses it wherever
+NumPy would call the C library (NumPy's baseline loop: the pinned environment, and machines
+without AVX-512), and NumPy's own SIMD loop where NumPy runs one (AVX-512 machines outside the
+pin, whose numbers are machine-dependent anyway; it is faster still).
+
+The algorithm (Sun Microsystems, 1993; float version by Ian Lance Taylor):
 
 * ``atan(x)`` for ``x >= 0``: an argument reduction to ``|t| <= 7/16`` around the nodes
   ``0, 1/2, 1, 3/2, inf``, ``atan(x) = atan(c) + atan(t)`` with
@@ -30,12 +37,14 @@ scalar code. The algorithm (Sun Microsystems, 1993; float version by Ian Lance T
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from numpy.typing import NDArray
 
 from infoseek.envs.compiled import kernel
 
-__all__ = ["arctan2_float32"]
+__all__ = ["arctan2_float32", "fdlibm_arctan2_float32", "numpy_arctan2_is_simd"]
 
 Float32Array = NDArray[np.float32]
 
@@ -190,6 +199,19 @@ def _arctan2_generic(
 
 
 @kernel
+def _special_count(y_bits: NDArray[np.int32], x_bits: NDArray[np.int32]) -> int:
+    """How many elements :func:`_arctan2_generic` does not apply to (a zero, an infinity or a
+    NaN, exponents more than 60 apart, ``x = 1``); branch-free, so it vectorises."""
+    count = 0
+    for i in range(y_bits.size):
+        ix, iy = x_bits[i] & 0x7FFFFFFF, y_bits[i] & 0x7FFFFFFF
+        k = (iy - ix) >> 23
+        edge = (ix == 0) | (iy == 0) | (ix >= 0x7F800000) | (iy >= 0x7F800000)
+        count += edge | (k > 60) | (k < -60) | (x_bits[i] == 0x3F800000)
+    return count
+
+
+@kernel
 def _arctan2_special(
     y: Float32Array,
     x: Float32Array,
@@ -197,8 +219,7 @@ def _arctan2_special(
     x_bits: NDArray[np.int32],
     out: Float32Array,
 ) -> None:
-    """:func:`_atan2` where :func:`_arctan2_generic` does not apply (a zero, an infinity or
-    a NaN, exponents more than 60 apart, ``x = 1``)."""
+    """:func:`_atan2` for the elements :func:`_special_count` counts."""
     for i in range(out.size):
         ix, iy = x_bits[i] & 0x7FFFFFFF, y_bits[i] & 0x7FFFFFFF
         k = (iy - ix) >> 23
@@ -207,9 +228,9 @@ def _arctan2_special(
             out[i] = _atan2(y[i], x[i], y_bits[i], x_bits[i])
 
 
-def arctan2_float32(y: Float32Array, x: Float32Array) -> Float32Array:
-    """Elementwise ``atan2(y, x)`` of two float32 arrays of the same shape, in ``[-pi, pi]``
-    (``fdlibm``'s values; see the module docstring).
+def fdlibm_arctan2_float32(y: Float32Array, x: Float32Array) -> Float32Array:
+    """Elementwise ``atan2(y, x)`` of two float32 arrays of the same shape, in ``[-pi, pi]``:
+    ``fdlibm``'s values (glibc 2.36's), computed here, the same on every machine.
 
     Args:
         y: Ordinates, float32.
@@ -222,19 +243,60 @@ def arctan2_float32(y: Float32Array, x: Float32Array) -> Float32Array:
         TypeError: If ``y`` or ``x`` is not a float32 array.
         ValueError: If their shapes differ.
     """
-    for name, value in (("y", y), ("x", x)):
-        if not isinstance(value, np.ndarray) or value.dtype != np.float32:
-            raise TypeError(f"arctan2_float32: {name} must be a float32 array, got {_kind(value)}")
-    if y.shape != x.shape:
-        raise ValueError(
-            f"arctan2_float32: y and x must have one shape, got {y.shape} and {x.shape}"
-        )
+    _check(y, x, "fdlibm_arctan2_float32")
     y_flat, x_flat = np.ascontiguousarray(y).ravel(), np.ascontiguousarray(x).ravel()
     out = np.empty(y_flat.shape, dtype=np.float32)
     y_bits, x_bits = y_flat.view(np.int32), x_flat.view(np.int32)
     _arctan2_generic(y_flat, x_flat, y_bits, x_bits, out)
-    _arctan2_special(y_flat, x_flat, y_bits, x_bits, out)
+    if _special_count(y_bits, x_bits):
+        _arctan2_special(y_flat, x_flat, y_bits, x_bits, out)
     return out.reshape(y.shape)
+
+
+def arctan2_float32(y: Float32Array, x: Float32Array) -> Float32Array:
+    """Elementwise float32 ``atan2(y, x)`` as the planners compute it: NumPy's ``arctan2``
+    where NumPy runs its own SIMD loop for it (AVX-512 machines outside the pinned numerical
+    environment, whose results are machine-dependent anyway), otherwise
+    :func:`fdlibm_arctan2_float32` (in the pinned environment, where NumPy would call the
+    C library's ``atan2f``: the same values on every machine, and faster).
+
+    Args:
+        y: Ordinates, float32.
+        x: Abscissas, float32, the shape of ``y``.
+
+    Returns:
+        A new float32 array of the shape of ``y``.
+
+    Raises:
+        TypeError: If ``y`` or ``x`` is not a float32 array.
+        ValueError: If their shapes differ.
+    """
+    if numpy_arctan2_is_simd():
+        _check(y, x, "arctan2_float32")
+        return np.arctan2(y, x)
+    return fdlibm_arctan2_float32(y, x)
+
+
+@functools.cache
+def numpy_arctan2_is_simd() -> bool:
+    """Whether NumPy's float32 ``arctan2`` runs one of NumPy's own SIMD loops in this process
+    (not the baseline loop, which calls the C library's ``atan2f``)."""
+    try:
+        from numpy.lib.introspect import opt_func_info
+    except ImportError:  # pragma: no cover - NumPy < 2.0
+        return False
+    info = opt_func_info(func_name="arctan2", signature="float32").get("arctan2", {})
+    current = str(next(iter(info.values()), {}).get("current", "baseline"))
+    return not current.startswith("baseline")
+
+
+def _check(y: object, x: object, owner: str) -> None:
+    for name, value in (("y", y), ("x", x)):
+        if not isinstance(value, np.ndarray) or value.dtype != np.float32:
+            raise TypeError(f"{owner}: {name} must be a float32 array, got {_kind(value)}")
+    assert isinstance(y, np.ndarray) and isinstance(x, np.ndarray)
+    if y.shape != x.shape:
+        raise ValueError(f"{owner}: y and x must have one shape, got {y.shape} and {x.shape}")
 
 
 def _kind(value: object) -> str:

@@ -3,11 +3,19 @@
 from __future__ import annotations
 
 import math
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 
-from infoseek.envs.arctangent import arctan2_float32
+from infoseek.envs.arctangent import (
+    arctan2_float32,
+    fdlibm_arctan2_float32,
+    numpy_arctan2_is_simd,
+)
+from infoseek.experiments.numerics import PINNED
 
 
 def _f32(bits: list[int]) -> np.ndarray:
@@ -33,7 +41,7 @@ GLIBC_236 = [
 
 def test_reproduces_the_fdlibm_values_the_stored_trials_were_written_with() -> None:
     y, x, expected = (_f32([row[i] for row in GLIBC_236]) for i in range(3))
-    got = arctan2_float32(y, x)
+    got = fdlibm_arctan2_float32(y, x)
     assert got.view(np.uint32).tolist() == expected.view(np.uint32).tolist()
 
 
@@ -45,7 +53,7 @@ def test_within_two_units_in_the_last_place_of_the_double_arctangent() -> None:
     y, x = words[0].view(np.float32), words[1].view(np.float32)
     keep = np.isfinite(y) & np.isfinite(x)
     y, x = y[keep], x[keep]
-    got = arctan2_float32(y, x)
+    got = fdlibm_arctan2_float32(y, x)
     reference = np.arctan2(y.astype(np.float64), x.astype(np.float64)).astype(np.float32)
     ulps = np.abs(got.view(np.int32).astype(np.int64) - reference.view(np.int32).astype(np.int64))
     same_sign = np.signbit(got) == np.signbit(reference)
@@ -100,7 +108,7 @@ def test_equals_an_independent_numpy_transcription_of_fdlibm() -> None:
     x = np.concatenate([x[keep], near[1]])
     with np.errstate(over="ignore", under="ignore"):
         expected = _fdlibm_in_numpy(y, x)
-    assert np.array_equal(arctan2_float32(y, x).view(np.uint32), expected.view(np.uint32))
+    assert np.array_equal(fdlibm_arctan2_float32(y, x).view(np.uint32), expected.view(np.uint32))
 
 
 @pytest.mark.parametrize(
@@ -124,7 +132,7 @@ def test_equals_an_independent_numpy_transcription_of_fdlibm() -> None:
     ],
 )
 def test_special_values_follow_ieee_754(y: float, x: float, expected: float) -> None:
-    got = arctan2_float32(np.array([y], np.float32), np.array([x], np.float32))[0]
+    got = fdlibm_arctan2_float32(np.array([y], np.float32), np.array([x], np.float32))[0]
     assert got == np.float32(expected)
     assert np.signbit(got) == np.signbit(np.float32(expected))
 
@@ -132,7 +140,7 @@ def test_special_values_follow_ieee_754(y: float, x: float, expected: float) -> 
 def test_nan_propagates_and_shapes_are_kept() -> None:
     y = np.array([[np.nan, 1.0], [2.0, 3.0]], np.float32)
     x = np.array([[1.0, np.nan], [2.0, -3.0]], np.float32)
-    got = arctan2_float32(y, x)
+    got = fdlibm_arctan2_float32(y, x)
     assert got.shape == (2, 2) and got.dtype == np.float32
     assert np.isnan(got[0]).all()
     np.testing.assert_allclose(got[1], [math.pi / 4, 3 * math.pi / 4], rtol=1e-7)
@@ -141,15 +149,38 @@ def test_nan_propagates_and_shapes_are_kept() -> None:
 def test_non_contiguous_input_gives_the_contiguous_values() -> None:
     rng = np.random.default_rng(1)
     y, x = rng.normal(size=(2, 6, 8)).astype(np.float32)
-    expected = arctan2_float32(np.ascontiguousarray(y.T), np.ascontiguousarray(x.T))
-    assert np.array_equal(arctan2_float32(y.T, x.T), expected)
+    expected = fdlibm_arctan2_float32(np.ascontiguousarray(y.T), np.ascontiguousarray(x.T))
+    assert np.array_equal(fdlibm_arctan2_float32(y.T, x.T), expected)
 
 
 def test_bad_input_names_the_argument() -> None:
     good = np.zeros(3, np.float32)
-    with pytest.raises(TypeError, match="y must be a float32 array, got dtype float64"):
-        arctan2_float32(np.zeros(3), good)
+    with pytest.raises(
+        TypeError, match="fdlibm_arctan2_float32: y must be a float32 array, got dtype float64"
+    ):
+        fdlibm_arctan2_float32(np.zeros(3), good)
     with pytest.raises(TypeError, match="x must be a float32 array, got list"):
-        arctan2_float32(good, [0.0, 0.0, 0.0])  # type: ignore[arg-type]
+        fdlibm_arctan2_float32(good, [0.0, 0.0, 0.0])  # type: ignore[arg-type]
     with pytest.raises(ValueError, match=r"one shape, got \(3,\) and \(2,\)"):
-        arctan2_float32(good, np.zeros(2, np.float32))
+        fdlibm_arctan2_float32(good, np.zeros(2, np.float32))
+
+
+def test_planners_use_numpy_only_where_numpy_has_its_own_simd_loop() -> None:
+    """Natively the dispatch follows NumPy's; in the pinned environment (NumPy's baseline
+    loop, i.e. the C library's atan2f) the values are fdlibm's computed here."""
+    rng = np.random.default_rng(4)
+    y, x = rng.normal(size=(2, 1000)).astype(np.float32)
+    expected = np.arctan2(y, x) if numpy_arctan2_is_simd() else fdlibm_arctan2_float32(y, x)
+    assert np.array_equal(arctan2_float32(y, x), expected)
+    with pytest.raises(TypeError, match="arctan2_float32: x must be a float32 array"):
+        arctan2_float32(y, x.astype(np.float64))
+    probe = (
+        "import numpy as np; from infoseek.envs.arctangent import *; "
+        "y = np.array([0x42740099], np.uint32).view(np.float32); "
+        "x = np.array([0x429678C0], np.uint32).view(np.float32); "
+        "print(numpy_arctan2_is_simd(), hex(int(arctan2_float32(y, x).view(np.uint32)[0])))"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "INFOSEEK_NATIVE_NUMERICS"}
+    env.update(PINNED)
+    pinned = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True, text=True)
+    assert pinned.stdout.split() == ["False", "0x3f2e68cc"], pinned.stderr
