@@ -14,8 +14,10 @@ The arithmetic is the sensor's, operation by operation and in the same order: th
 ``max_snr``, projected along and across ``z``; ``log erf`` switching to ``log1p(-erfc)`` at
 0.5; the two terms combined as NumPy's ``logaddexp`` combines them; the readings summed in
 order (a reading not received adds ``0.0``), as NumPy sums a leading axis. ``erf`` and ``erfc``
-are SciPy's (which differ from the C library's in the last bits), applied as ufuncs between
-two compiled passes; everything else runs in the passes with the C library's transcendentals.
+are SciPy's (which differ from the C library's in the last bits), called from the compiled pass
+through SciPy's Cython interface (``scipy.special.cython_special``: the functions its ufuncs
+call, registered with LLVM under a name of our own so that the kernels can be cached);
+everything else runs with the C library's transcendentals.
 In the pinned numerical environment (:mod:`infoseek.envs.compiled`) the result therefore
 equals the masked sum of ``BeaconSensor.log_likelihood`` bit for bit
 (``tests/test_filter_kernels.py``). The C library's ``pow(r, 3)`` and the other
@@ -25,10 +27,13 @@ transcendentals, which both versions call once per reading and particle, dominat
 from __future__ import annotations
 
 import math
+from typing import Any
 
+import llvmlite.binding as llvm
 import numpy as np
+from numba import types
+from numba.extending import get_cython_function_address
 from numpy.typing import NDArray
-from scipy.special import erf, erfc
 
 from infoseek.envs.compiled import kernel
 
@@ -42,6 +47,19 @@ _LOG_2 = 0.693147180559945309417232121458176568  # NumPy's NPY_LOGE2
 _MIN_ALONG = 1e-150
 _SQRT_HALF = math.sqrt(0.5)
 _MIN_DISTANCE = 1e-3
+
+
+def _scipy_special(name: str) -> Any:
+    """SciPy's real ``name`` (``erf``, ``erfc``) as a function the kernels (only) call by a
+    symbol of our own (``double f(double x, int skip_dispatch)``, Cython's signature)."""
+    symbol = f"infoseek_scipy_special_{name}"
+    address = get_cython_function_address("scipy.special.cython_special", f"__pyx_fuse_1{name}")
+    llvm.add_symbol(symbol, address)
+    return types.ExternalFunction(symbol, types.float64(types.float64, types.intc))
+
+
+_erf = _scipy_special("erf")
+_erfc = _scipy_special("erfc")
 
 
 @kernel
@@ -102,16 +120,22 @@ def _log_add_exp(x: float, y: float) -> float:
 
 
 @kernel
+def _erf_part(along: float) -> float:
+    """``erf(x)`` where ``x = max(|a|, 1e-150) / sqrt 2 < 0.5``, else ``erfc(x)`` (NaN stays
+    NaN, as in NumPy's ``maximum``), SciPy's values."""
+    x = (along if along != along or along > _MIN_ALONG else _MIN_ALONG) * _SQRT_HALF
+    return _erf(x, 0) if x < 0.5 else _erfc(x, 0)
+
+
+@kernel
 def _summed_log_density(
     along: FloatArray,
     across: FloatArray,
-    erf_part: FloatArray,
     received: NDArray[np.bool_],
     total: FloatArray,
 ) -> bool:
     """``total[k, n] = sum_m log p`` over the readings belief ``k`` received (a reading it
-    did not receive adds ``0.0``, as in NumPy's masked sum), from the projections and
-    ``erf_part`` (``erf(x)`` where ``x = max(|a|, 1e-150) / sqrt 2 < 0.5``, else ``erfc(x)``);
+    did not receive adds ``0.0``, as in NumPy's masked sum), from the projections;
     ``False`` if some total is NaN or ``+inf``."""
     ok = True
     for k in range(along.shape[0]):
@@ -121,11 +145,12 @@ def _summed_log_density(
                 if received[k, m]:
                     a, b = along[k, m, n], across[k, m, n]
                     uniform_part = -0.5 * (a * a + b * b) - _LOG_PI
+                    erf_part = _erf_part(a)
                     a = max(a, _MIN_ALONG)
                     if a * _SQRT_HALF < 0.5:
-                        log_erf = math.log(erf_part[k, m, n])
+                        log_erf = math.log(erf_part)
                     else:
-                        log_erf = math.log1p(-erf_part[k, m, n])
+                        log_erf = math.log1p(-erf_part)
                     peak_part = -0.5 * b * b - _LOG_SQRT_2PI + math.log(a) + log_erf
                     value = _log_add_exp(uniform_part, peak_part)
                 total[k, n] = value if m == 0 else total[k, n] + value
@@ -167,14 +192,8 @@ def summed_beacon_log_likelihood(
     z, poses, particles = (np.ascontiguousarray(a) for a in (z, poses, particles))
     moment, noise_std, max_snr = (float(value) for value in sensor)
     _projections(z, poses, particles, moment, noise_std, max_snr, along, across)
-    x = np.maximum(along, _MIN_ALONG) * _SQRT_HALF
-    below = x < 0.5
-    above = ~below
-    erf_part = np.empty(shape)  # SciPy's erf / erfc (their ufuncs do not support where=)
-    erf_part[below] = erf(x[below])
-    erf_part[above] = erfc(x[above])
     total = np.empty(shape[::2])
-    ok = _summed_log_density(along, across, erf_part, np.ascontiguousarray(received), total)
+    ok = _summed_log_density(along, across, np.ascontiguousarray(received), total)
     return total, bool(ok)
 
 
