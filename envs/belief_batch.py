@@ -413,6 +413,7 @@ class BeliefBatch:
         n = particles.shape[0]
         tempering = self._tempering_on()
         remaining, log_evidence, stage = 1.0, 0.0, 0
+        past_loglik: FloatArray | None = None  # of the kept observations, once moves ran
         while True:
             stage += 1
             full = log_weights + remaining * loglik
@@ -428,10 +429,12 @@ class BeliefBatch:
             log_evidence += log_z
             idx = systematic_resample(np.exp(partial - log_z), self.rngs[k])
             particles, loglik = particles[idx], loglik[idx]
+            if past_loglik is not None:
+                past_loglik = past_loglik[idx]
             remaining -= lam
             if self.roughening > 0.0:
-                particles, loglik = self._tempered_move(
-                    k, sensor, z, poses, particles, loglik, 1.0 - remaining
+                particles, loglik, past_loglik = self._tempered_move(
+                    k, sensor, z, poses, particles, loglik, 1.0 - remaining, past_loglik
                 )
             log_weights = np.full(n, -math.log(n))
 
@@ -444,13 +447,20 @@ class BeliefBatch:
         particles: FloatArray,
         loglik: FloatArray,
         exponent: float,
-    ) -> tuple[FloatArray, FloatArray]:
+        past_loglik: FloatArray | None = None,
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
         """``TEMPERING_MOVE_SWEEPS`` Metropolis sweeps of belief ``k``'s resampled particles
         (proposal: the roughening jitter at a shrinking scale) with target the stage's exact
-        posterior ``p_0 * (likelihood of the kept past observations) * L^exponent``."""
+        posterior ``p_0 * (likelihood of the kept past observations) * L^exponent``; returns
+        the particles, their ``L`` and their past log-likelihood (``past_loglik``, when given,
+        is that of ``particles``: an earlier stage's, carried through its resampling, the
+        same numbers as evaluating the history again)."""
         particles, loglik = particles.copy(), loglik.copy()
         past = self.history.observations(k)
-        past_loglik = self._past_log_likelihood(past, particles)
+        if past_loglik is None:
+            past_loglik = self._past_log_likelihood(past, particles)
+        else:
+            past_loglik = past_loglik.copy()
         scale = TEMPERING_MOVE_SCALE
         for _ in range(TEMPERING_MOVE_SWEEPS):
             proposal = self.roughen(particles[None], [self.rngs[k]], move_scale=scale)[0]
@@ -464,7 +474,7 @@ class BeliefBatch:
             loglik[accept] = proposal_loglik[accept]
             past_loglik[accept] = proposal_past[accept]
             scale *= TEMPERING_MOVE_SHRINK
-        return particles, loglik
+        return particles, loglik, past_loglik
 
     def resample_if_needed(self) -> BoolArray:
         """Systematic resampling plus roughening of every belief whose
