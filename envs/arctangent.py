@@ -199,15 +199,21 @@ def _arctan2_generic(
 
 
 @kernel
+def _is_special(y_bits: np.int32, x_bits: np.int32) -> bool:
+    """Whether :func:`_arctan2_generic` does not apply to ``atan2(y, x)`` (a zero, an infinity
+    or a NaN, exponents more than 60 apart, ``x = 1``); branch-free, so loops vectorise."""
+    ix, iy = x_bits & 0x7FFFFFFF, y_bits & 0x7FFFFFFF
+    k = (iy - ix) >> 23
+    edge = (ix == 0) | (iy == 0) | (ix >= 0x7F800000) | (iy >= 0x7F800000)
+    return edge | (k > 60) | (k < -60) | (x_bits == 0x3F800000)
+
+
+@kernel
 def _special_count(y_bits: NDArray[np.int32], x_bits: NDArray[np.int32]) -> int:
-    """How many elements :func:`_arctan2_generic` does not apply to (a zero, an infinity or a
-    NaN, exponents more than 60 apart, ``x = 1``); branch-free, so it vectorises."""
+    """How many elements :func:`_is_special`."""
     count = 0
     for i in range(y_bits.size):
-        ix, iy = x_bits[i] & 0x7FFFFFFF, y_bits[i] & 0x7FFFFFFF
-        k = (iy - ix) >> 23
-        edge = (ix == 0) | (iy == 0) | (ix >= 0x7F800000) | (iy >= 0x7F800000)
-        count += edge | (k > 60) | (k < -60) | (x_bits[i] == 0x3F800000)
+        count += _is_special(y_bits[i], x_bits[i])
     return count
 
 
@@ -219,12 +225,9 @@ def _arctan2_special(
     x_bits: NDArray[np.int32],
     out: Float32Array,
 ) -> None:
-    """:func:`_atan2` for the elements :func:`_special_count` counts."""
+    """:func:`_atan2` for the elements :func:`_is_special`."""
     for i in range(out.size):
-        ix, iy = x_bits[i] & 0x7FFFFFFF, y_bits[i] & 0x7FFFFFFF
-        k = (iy - ix) >> 23
-        edge = ix == 0 or iy == 0 or ix >= 0x7F800000 or iy >= 0x7F800000
-        if edge or k > 60 or k < -60 or x_bits[i] == 0x3F800000:
+        if _is_special(y_bits[i], x_bits[i]):
             out[i] = _atan2(y[i], x[i], y_bits[i], x_bits[i])
 
 
@@ -258,18 +261,8 @@ def arctan2_float32(y: Float32Array, x: Float32Array) -> Float32Array:
     where NumPy runs its own SIMD loop for it (AVX-512 machines outside the pinned numerical
     environment, whose results are machine-dependent anyway), otherwise
     :func:`fdlibm_arctan2_float32` (in the pinned environment, where NumPy would call the
-    C library's ``atan2f``: the same values on every machine, and faster).
-
-    Args:
-        y: Ordinates, float32.
-        x: Abscissas, float32, the shape of ``y``.
-
-    Returns:
-        A new float32 array of the shape of ``y``.
-
-    Raises:
-        TypeError: If ``y`` or ``x`` is not a float32 array.
-        ValueError: If their shapes differ.
+    C library's ``atan2f``: the same values on every machine, and faster). Arguments, result
+    and errors as :func:`fdlibm_arctan2_float32`'s.
     """
     if numpy_arctan2_is_simd():
         _check(y, x, "arctan2_float32")
