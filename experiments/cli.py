@@ -236,8 +236,10 @@ def run_verify_command(args: argparse.Namespace) -> int:
     stored = read_manifest(args.directory).get("numerics")
     current = describe()
     print(f"numerical environment: {_numerics_line(current)}")
-    if stored is not None and _numerics_line(stored) != _numerics_line(current):
-        print(f"  (the store was written under: {_numerics_line(stored)})")
+    if stored is not None:  # compared on what the store recorded (older stores record less)
+        recorded = {key: value for key, value in current.items() if key in stored}
+        if _numerics_line(stored) != _numerics_line(recorded):
+            print(f"  (the store was written under: {_numerics_line(stored)})")
     for key, comparison in result.differing.items():
         step = "" if comparison.first_step is None else f" from step {comparison.first_step}"
         print(f"{key}: diverged{step}; differs in {', '.join(comparison.fields)}")
@@ -304,6 +306,8 @@ def _numerics_line(numerics: dict[str, Any]) -> str:
     numba = numerics.get("numba")  # stores written before the compiled kernels have none
     if numba is not None:
         line += f"; numba {numba.get('numba')} target {numba.get('cpu_name')}"
+    if "scipy" in numerics:  # recorded since the beacon kernel calls SciPy's erf
+        line += f"; SciPy {numerics['scipy']}; C library {numerics.get('libc')}"
     return line
 
 

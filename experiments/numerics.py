@@ -31,6 +31,7 @@ This module imports nothing heavy, so the command line can pin before NumPy load
 from __future__ import annotations
 
 import os
+import platform
 import sys
 from typing import Any
 
@@ -61,8 +62,9 @@ def pin() -> bool:
 
 
 def describe() -> dict[str, Any]:
-    """NumPy's version and SIMD targets in use, the BLAS libraries with their kernels, and
-    numba's code generation (:func:`infoseek.envs.compiled.describe`)."""
+    """NumPy's version and SIMD targets in use, the BLAS libraries with their kernels,
+    numba's code generation (:func:`infoseek.envs.compiled.describe`), SciPy's version (its
+    ``erf``) and the C library (its transcendentals: ``docs/development.md``)."""
     import importlib
 
     import numpy as np
@@ -90,5 +92,7 @@ def describe() -> dict[str, Any]:
             if info.get("user_api") == "blas"
         ],
         "numba": compiled.describe(),
+        "scipy": importlib.import_module("scipy").__version__,
+        "libc": " ".join(platform.libc_ver()).strip() or "unknown",
         "pinned": all(os.environ.get(key) == value for key, value in PINNED.items()),
     }

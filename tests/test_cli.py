@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import platform
 import shutil
 import subprocess
 import sys
@@ -13,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy
 from PIL import Image
 
 from infoseek.experiments.analysis import format_p_value, mass_curves
@@ -586,10 +588,13 @@ def test_stored_trials_verify_under_another_blas_kernel(tmp_path: Path) -> None:
     manifest = json.loads((out / MANIFEST_NAME).read_text())
     assert manifest["numerics"]["pinned"] is True
     assert {b["kernel"] for b in manifest["numerics"]["blas"]} == {"Haswell"}
+    assert manifest["numerics"]["scipy"] == scipy.__version__
+    assert manifest["numerics"]["libc"] == (" ".join(platform.libc_ver()).strip() or "unknown")
     for kernel in ("SkylakeX", "Sandybridge"):
         checked = _cli(["verify", str(out), "--no-progress"], OPENBLAS_CORETYPE=kernel)
         assert checked.returncode == 0, checked.stdout + checked.stderr
         assert "1 reproduced exactly" in checked.stdout
+        assert f"C library {manifest['numerics']['libc']}" in checked.stdout
     numba = manifest["numerics"]["numba"]
     assert numba["fastmath"] is False and numba["svml"] is False
     other = "generic" if numba["cpu_name"] != "generic" else "x86-64"
