@@ -12,7 +12,9 @@ a whole trajectory. Two things make such bits machine-dependent:
 
 Trials are therefore run (``infoseek bench``, ``reproduce``, ``verify``, and their worker
 processes) in a pinned environment: :data:`PINNED` selects the AVX2 code paths of both, which
-every x86-64 CPU with AVX2 runs, and :func:`pin` sets it before NumPy is imported. Each trial
+every x86-64 CPU with AVX2 runs (NumPy's AVX-512 targets under the names of every NumPy
+generation: 2.4 and later group them as ``X86_V4``, earlier versions list ``AVX512F`` ...), and
+:func:`pin` sets it before NumPy is imported. Each trial
 also runs with one BLAS thread (:func:`infoseek.experiments.bench.run_trial`): the summation
 order of a threaded product depends on the thread count. :func:`describe` reports what is in
 effect; the bench store records it in its manifest and ``infoseek verify`` prints it.
@@ -40,7 +42,12 @@ __all__ = ["PINNED", "describe", "pin"]
 #: Environment variables of the pinned numerical environment.
 PINNED: dict[str, str] = {
     "OPENBLAS_CORETYPE": "Haswell",
-    "NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR",
+    # NumPy >= 2.4 names its AVX-512 targets X86_V4, AVX512_ICL, AVX512_SPR; earlier versions
+    # AVX512F ... AVX512_SPR. Each version ignores the other's names (an ImportWarning).
+    "NPY_DISABLE_CPU_FEATURES": (
+        "X86_V4 AVX512_ICL AVX512_SPR AVX512F AVX512CD AVX512_KNL AVX512_KNM AVX512_SKX "
+        "AVX512_CLX AVX512_CNL AVX512FP16"
+    ),
     "NUMBA_DISABLE_INTEL_SVML": "1",
 }
 
