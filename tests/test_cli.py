@@ -672,7 +672,9 @@ def test_committed_fig1_trial_reproduces_under_a_correctly_rounded_float_libm(
     replaced = subprocess.run(
         [sys.executable, "-c", probe], env=pinned, capture_output=True, text=True
     )
-    assert replaced.stdout.strip() == "0x3f2e68cd", replaced.stderr  # glibc 2.36: 0x3f2e68cc
+    assert replaced.returncode == 0, replaced.stderr
+    if replaced.stdout.strip() != "0x3f2e68cd":  # glibc 2.36's fdlibm value: 0x3f2e68cc
+        pytest.skip("LD_PRELOAD did not replace the C library's atan2f in this environment")
     group = ["--group", "pairwise/10"]
     checked = _cli(
         ["verify", str(FIG1_STORE), "--trials", "1", *group, "--no-progress"],
