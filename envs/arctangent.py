@@ -81,37 +81,53 @@ _ATAN_AT_INFINITY = _F(_ATAN_HI[3] + _ATAN_LO[3])
 
 
 @kernel
-def _atan(x: np.float32) -> np.float32:
-    """``fdlibm``'s float ``atan(x)`` (module docstring)."""
-    if x != x:
-        return x + x
-    ax = abs(x)
-    if ax >= _TWO_POW_25:
-        hi = _ATAN_HI[3] + _ATAN_LO[3]
-        return hi if x > _ZERO else -hi
-    node = -1
-    if ax < _NODE_EDGES[0]:
-        if ax < _TWO_POW_M29:
-            return x
-        t = x
-    elif ax < _NODE_EDGES[2]:
-        if ax < _NODE_EDGES[1]:
-            node, t = 0, (_TWO * ax - _ONE) / (_TWO + ax)
-        else:
-            node, t = 1, (ax - _ONE) / (ax + _ONE)
-    elif ax < _NODE_EDGES[3]:
-        node, t = 2, (ax - _THREE_HALVES) / (_ONE + _THREE_HALVES * ax)
-    else:
-        node, t = 3, -_ONE / ax
+def _atan_non_negative(a: np.float32) -> np.float32:
+    """``fdlibm``'s float ``atan(a)`` for ``a >= 0`` (not NaN), written with selects instead of
+    branches (every node's reduction is formed, the division done once, then the node's values
+    picked) so that loops calling it vectorise: the same float32 operations on the selected
+    values as ``fdlibm``'s branches, hence the same bits."""
+    n0 = (a >= _NODE_EDGES[0]) & (a < _NODE_EDGES[1])
+    n1 = (a >= _NODE_EDGES[1]) & (a < _NODE_EDGES[2])
+    n2 = (a >= _NODE_EDGES[2]) & (a < _NODE_EDGES[3])
+    n3 = a >= _NODE_EDGES[3]
+    num, den, hi, lo = a, _ONE, _ATAN_HI[3], _ATAN_LO[3]
+    num = (_TWO * a - _ONE) if n0 else num
+    num = (a - _ONE) if n1 else num
+    num = (a - _THREE_HALVES) if n2 else num
+    num = -_ONE if n3 else num
+    den = (_TWO + a) if n0 else den
+    den = (a + _ONE) if n1 else den
+    den = (_ONE + _THREE_HALVES * a) if n2 else den
+    den = a if n3 else den
+    hi = _ATAN_HI[2] if n2 else hi
+    hi = _ATAN_HI[1] if n1 else hi
+    hi = _ATAN_HI[0] if n0 else hi
+    lo = _ATAN_LO[2] if n2 else lo
+    lo = _ATAN_LO[1] if n1 else lo
+    lo = _ATAN_LO[0] if n0 else lo
+    t = num / den
     z = t * t
     w = z * z
     c = _SERIES
     s1 = z * (c[0] + w * (c[2] + w * (c[4] + w * (c[6] + w * (c[8] + w * c[10])))))
     s2 = w * (c[1] + w * (c[3] + w * (c[5] + w * (c[7] + w * c[9]))))
-    if node < 0:
-        return t - t * (s1 + s2)
-    z = _ATAN_HI[node] - ((t * (s1 + s2) - _ATAN_LO[node]) - t)
-    return -z if x < _ZERO else z
+    r = (t - t * (s1 + s2)) if a < _NODE_EDGES[0] else hi - ((t * (s1 + s2) - lo) - t)
+    r = a if a < _TWO_POW_M29 else r
+    return _ATAN_AT_INFINITY if a >= _TWO_POW_25 else r
+
+
+@kernel
+def _atan(x: np.float32) -> np.float32:
+    """``fdlibm``'s float ``atan(x)``: NaN, ``x`` itself below ``2^-29`` (signed zeros kept),
+    else :func:`_atan_non_negative` of ``|x|`` with the sign of ``x`` (the odd series of
+    ``-|x|`` is the negated series of ``|x|`` in round-to-nearest)."""
+    if x != x:
+        return x + x
+    ax = abs(x)
+    if ax < _TWO_POW_M29:
+        return x
+    r = _atan_non_negative(ax)
+    return -r if x < _ZERO else r
 
 
 @kernel
@@ -158,40 +174,10 @@ def _arctan2_generic(
     out: Float32Array,
 ) -> None:
     """:func:`_atan2` for finite non-zero ``y`` and ``x`` whose exponents are at most 60 apart,
-    written with selects instead of branches (every node's reduction is formed, the division
-    done once, then the node's values picked) so that the loop vectorises: the same float32
-    operations on the selected values, hence the same bits. Other elements are left to
-    :func:`_arctan2_special`."""
-    c = _SERIES
+    without branches (:func:`_atan_non_negative`, the quadrant by selects), so that the loop
+    vectorises. Other elements are left to :func:`_arctan2_special`."""
     for i in range(out.size):
-        a = abs(y[i] / x[i])
-        n0 = (a >= _NODE_EDGES[0]) & (a < _NODE_EDGES[1])
-        n1 = (a >= _NODE_EDGES[1]) & (a < _NODE_EDGES[2])
-        n2 = (a >= _NODE_EDGES[2]) & (a < _NODE_EDGES[3])
-        n3 = a >= _NODE_EDGES[3]
-        num, den, hi, lo = a, _ONE, _ATAN_HI[3], _ATAN_LO[3]
-        num = (_TWO * a - _ONE) if n0 else num
-        num = (a - _ONE) if n1 else num
-        num = (a - _THREE_HALVES) if n2 else num
-        num = -_ONE if n3 else num
-        den = (_TWO + a) if n0 else den
-        den = (a + _ONE) if n1 else den
-        den = (_ONE + _THREE_HALVES * a) if n2 else den
-        den = a if n3 else den
-        hi = _ATAN_HI[2] if n2 else hi
-        hi = _ATAN_HI[1] if n1 else hi
-        hi = _ATAN_HI[0] if n0 else hi
-        lo = _ATAN_LO[2] if n2 else lo
-        lo = _ATAN_LO[1] if n1 else lo
-        lo = _ATAN_LO[0] if n0 else lo
-        t = num / den
-        z = t * t
-        w = z * z
-        s1 = z * (c[0] + w * (c[2] + w * (c[4] + w * (c[6] + w * (c[8] + w * c[10])))))
-        s2 = w * (c[1] + w * (c[3] + w * (c[5] + w * (c[7] + w * c[9]))))
-        r = (t - t * (s1 + s2)) if a < _NODE_EDGES[0] else hi - ((t * (s1 + s2) - lo) - t)
-        r = a if a < _TWO_POW_M29 else r
-        r = _ATAN_AT_INFINITY if a >= _TWO_POW_25 else r
+        r = _atan_non_negative(abs(y[i] / x[i]))
         negative_y = y_bits[i] < 0
         right = -r if negative_y else r
         left = ((r - _PI_LO) - _PI) if negative_y else (_PI - (r - _PI_LO))
