@@ -41,6 +41,7 @@ from infoseek.envs.log_weights import (
     logsumexp_rows,
     normalised,
 )
+from infoseek.envs.pcg64 import uniforms as draw_uniforms
 from infoseek.envs.resampling import gather_rows, systematic_resample, systematic_resample_rows
 from infoseek.envs.roughening import coordinate_ranges, jitter
 from infoseek.envs.summaries import mass_grids, masses_within, weighted_means
@@ -486,7 +487,7 @@ class BeliefBatch:
         rows = np.flatnonzero(need)
         if rows.size == 0:
             return need
-        uniforms = np.array([self.rngs[k].random() for k in rows])
+        uniforms = draw_uniforms([self.rngs[k] for k in rows])
         idx = systematic_resample_rows(self.weights[rows], uniforms)
         particles = gather_rows(self.particles, rows, idx)
         if self.roughening > 0.0:

@@ -119,14 +119,27 @@ def test_systematic_resampling_of_rows_is_searchsorted_of_the_cumulative_weights
         )
 
 
-def test_jitter_reflects_and_wraps_as_the_target_space_does() -> None:
+_BIT_GENERATORS = {
+    "pcg64": lambda r: np.random.PCG64(r),  # one compiled call for all sets
+    "philox": lambda r: np.random.Philox(r),  # numba's Generator support, set by set
+    "mixed": lambda r: np.random.PCG64(r) if r % 2 else np.random.MT19937(r),
+}
+
+
+@pytest.mark.parametrize("bit_generator", sorted(_BIT_GENERATORS))
+def test_jitter_reflects_and_wraps_as_the_target_space_does(bit_generator: str) -> None:
     rng = np.random.default_rng(3)
     low, high = np.array([0.0, -1.0, 0.0]), np.array([40.0, 3.0, math.pi])
     periodic = np.array([False, False, True])
     particles = rng.uniform(low, high, size=(4, 500, 3))
     std = rng.uniform(0.0, 30.0, size=(4, 3))
-    out = jitter(particles, std, [np.random.default_rng(r) for r in range(4)], low, high, periodic)
-    noise = np.stack([np.random.default_rng(r).standard_normal((500, 3)) for r in range(4)])
+    make = _BIT_GENERATORS[bit_generator]
+    rngs = [np.random.Generator(make(r)) for r in range(4)]
+    out = jitter(particles, std, rngs, low, high, periodic)
+    references = [np.random.Generator(make(r)) for r in range(4)]
+    noise = np.stack([reference.standard_normal((500, 3)) for reference in references])
+    for used, reference in zip(rngs, references, strict=True):  # the streams moved alike
+        assert np.array_equal(used.random(3), reference.random(3))
     moved = noise * std[:, None, :] + particles
     expected = moved.copy()
     for j in (0, 1):
