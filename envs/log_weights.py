@@ -15,8 +15,10 @@ For each row ``k`` of ``(K, N)`` log-weights :math:`\ell_{k,n}`:
 Every row is computed alone (equal rows give equal results, so the log ESS of uniform rows is
 computed once): row ``k`` does not depend on the other rows. The ``exp`` passes over the
 ``(K, N)`` arrays stay NumPy ufuncs (SIMD loops, faster than a compiled call of the C library's
-``exp`` per element); the per-row logarithms, ESS and uniformity tests are compiled. The
-numbers are those of the earlier NumPy form bit for bit.
+``exp`` per element); the sums, logarithms, maxima, ESS and uniformity tests around them are
+compiled (the Bayes step is two compiled passes around one ``exp`` call). The log ESS of a row
+of equal log-weights needs no ``exp``: every term is ``exp(0) = 1``. The numbers are those of
+the earlier NumPy form bit for bit.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from infoseek.envs.compiled import kernel
+from infoseek.envs.compiled import kernel, pairwise_sum
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -95,15 +97,6 @@ def ess_rows(weights: FloatArray) -> FloatArray:
 
 
 @kernel
-def _uniform_rows(values: FloatArray) -> BoolArray:
-    """``(K,)`` whether every value of a row equals its first (a resampled belief)."""
-    out = np.empty(values.shape[0], dtype=np.bool_)
-    for k in range(values.shape[0]):
-        out[k] = is_uniform(values[k])
-    return out
-
-
-@kernel
 def is_uniform(values: FloatArray) -> bool:
     """Whether every value equals the first (the log-weights of a resampled belief)."""
     for i in range(1, values.shape[0]):
@@ -112,22 +105,102 @@ def is_uniform(values: FloatArray) -> bool:
     return True
 
 
+@kernel
+def _uniform_log_ess(log_weights: FloatArray) -> tuple[FloatArray, BoolArray]:
+    """``log ESS`` of the rows whose log-weights are all equal, and which rows those are.
+
+    For a row of ``N`` equal values ``c`` this is :func:`logsumexp_rows`'s arithmetic with
+    every ``exp(c - c) = exp(0) = 1`` (exact in any ``exp``) and the pairwise sum of ``N``
+    ones (exactly ``N``): ``2 (c + log N) - (2 c + log N)``, so the same bits without an
+    ``exp`` pass.
+    """
+    k_rows, n = log_weights.shape
+    out = np.zeros(k_rows)
+    uniform = np.empty(k_rows, dtype=np.bool_)
+    for k in range(k_rows):
+        uniform[k] = is_uniform(log_weights[k])
+        if uniform[k]:
+            c = log_weights[k, 0]
+            once = c + math.log(float(n)) if math.isfinite(c) else c
+            twice = 2.0 * c + math.log(float(n)) if math.isfinite(2.0 * c) else 2.0 * c
+            out[k] = 2.0 * once - twice
+    return out, uniform
+
+
 def log_ess_rows(log_weights: FloatArray) -> FloatArray:
-    """``(K,)`` ``log ESS = 2 log Z(l) - log Z(2 l)`` of ``(K, N)`` log-weights, computed once
-    for all rows of equal log-weights (equal rows give equal results)."""
+    """``(K,)`` ``log ESS = 2 log Z(l) - log Z(2 l)`` of ``(K, N)`` log-weights (rows of equal
+    log-weights in closed form, :func:`_uniform_log_ess`; the same numbers)."""
     log_weights = _rows_of(log_weights, "log_weights")
-    out = np.empty(log_weights.shape[0])
-    uniform = _uniform_rows(log_weights)
-    first = log_weights[:, 0]
-    for value in np.unique(first[uniform]):
-        rows = np.flatnonzero(uniform & (first == value))
-        one = log_weights[rows[:1]]
-        out[rows] = 2.0 * logsumexp_rows(one)[0] - logsumexp_rows(2.0 * one)[0]
+    out, uniform = _uniform_log_ess(log_weights)
     rest = np.flatnonzero(~uniform)
     if rest.size:
         some = log_weights[rest]
-        out[rest] = 2.0 * logsumexp_rows(some) - logsumexp_rows(2.0 * some)
-    return out
+        with np.errstate(invalid="ignore"):
+            out[rest] = 2.0 * logsumexp_rows(some) - logsumexp_rows(2.0 * some)
+    return out  # type: ignore[no-any-return]
+
+
+@kernel
+def _shifted(
+    log_weights: FloatArray, log_likelihood: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """``full = l + log p``, its row maxima, and the ``(2K, N)`` exponents of
+    :func:`logsumexp_rows` of ``full`` (rows ``k``) and of ``2 full`` (rows ``K + k``), whose
+    maxima are exactly twice those of ``full``."""
+    k_rows, n = log_weights.shape
+    full = np.empty((k_rows, n))
+    shifted = np.empty((2 * k_rows, n))
+    peak = np.empty(k_rows)
+    for k in range(k_rows):
+        top = -math.inf
+        for i in range(n):
+            value = log_weights[k, i] + log_likelihood[k, i]
+            full[k, i] = value
+            top = max(top, value)
+        peak[k] = top
+        shift = top if math.isfinite(top) else 0.0
+        shift_twice = 2.0 * top if math.isfinite(2.0 * top) else 0.0
+        for i in range(n):
+            shifted[k, i] = full[k, i] - shift
+            shifted[k_rows + k, i] = 2.0 * full[k, i] - shift_twice
+    return full, peak, shifted
+
+
+@kernel
+def _accepted_rows(
+    full: FloatArray,
+    peak: FloatArray,
+    exponentials: FloatArray,
+    live: BoolArray,
+    log_floor: FloatArray,
+    tempering: bool,
+) -> tuple[FloatArray, BoolArray, FloatArray]:
+    """Log evidence of every row, the acceptance of each, and ``full - log Z`` of the accepted
+    rows in row order (module docstring)."""
+    k_rows, n = full.shape
+    log_z = np.empty(k_rows)
+    accepted = np.zeros(k_rows, dtype=np.bool_)
+    count = 0
+    for k in range(k_rows):
+        top = peak[k]
+        log_z[k] = top + math.log(pairwise_sum(exponentials[k])) if math.isfinite(top) else top
+        ok = live[k] and math.isfinite(log_z[k]) and log_z[k] >= DEGENERATE_LOG_EVIDENCE
+        if ok and tempering:
+            twice = 2.0 * top
+            log_z_twice = twice
+            if math.isfinite(twice):
+                log_z_twice = twice + math.log(pairwise_sum(exponentials[k_rows + k]))
+            ok = 2.0 * log_z[k] - log_z_twice >= log_floor[k]
+        accepted[k] = ok
+        count += ok
+    updated = np.empty((count, n))
+    row = 0
+    for k in range(k_rows):
+        if accepted[k]:
+            for i in range(n):
+                updated[row, i] = full[k, i] - log_z[k]
+            row += 1
+    return log_z, accepted, updated
 
 
 def bayes_step(
@@ -137,6 +210,10 @@ def bayes_step(
     tempering_ess: float | None,
 ) -> tuple[FloatArray, FloatArray, FloatArray, BoolArray]:
     """The Bayes step of every row (module docstring).
+
+    Two compiled passes around one NumPy ``exp`` of the ``(2K, N)`` exponents of ``log Z(l')``
+    and ``log Z(2 l')`` (and one of the accepted log-weights), with the arithmetic of
+    :func:`logsumexp_rows` and :func:`log_ess_rows`: the numbers of computing them one by one.
 
     Args:
         log_weights: ``(K, N)`` normalised log-weights before the step.
@@ -158,20 +235,17 @@ def bayes_step(
             f"log_likelihood must have the shape of log_weights {log_weights.shape}, "
             f"got {log_likelihood.shape}"
         )
-    live = np.asarray(live, dtype=np.bool_)
+    live = np.ascontiguousarray(live, dtype=np.bool_)
     if live.shape != log_weights.shape[:1]:
         raise ValueError(f"live must have shape {log_weights.shape[:1]}, got {live.shape}")
-    full = log_weights + log_likelihood
-    log_z = logsumexp_rows(full)
-    with np.errstate(invalid="ignore"):
-        accepted = live & np.isfinite(log_z) & (log_z >= DEGENERATE_LOG_EVIDENCE)
-        if tempering_ess is not None and accepted.any():
-            rows = np.flatnonzero(accepted)
-            log_floor = math.log(tempering_ess) + log_ess_rows(log_weights[rows])
-            posterior = 2.0 * log_z[rows] - logsumexp_rows(2.0 * full[rows])
-            accepted[rows] = posterior >= log_floor
-    rows = np.flatnonzero(accepted)
-    updated = full[rows] - log_z[rows, None]
+    full, peak, exponentials = _shifted(log_weights, log_likelihood)
+    tempering = tempering_ess is not None
+    used = exponentials if tempering else exponentials[: full.shape[0]]
+    np.exp(used, out=used)
+    log_floor = peak  # unread without tempering
+    if tempering_ess is not None:
+        log_floor = math.log(tempering_ess) + log_ess_rows(log_weights)
+    log_z, accepted, updated = _accepted_rows(full, peak, exponentials, live, log_floor, tempering)
     return updated, normalised(updated), log_z, accepted
 
 

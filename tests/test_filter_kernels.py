@@ -12,7 +12,13 @@ import numpy as np
 import pytest
 from scipy.special import logsumexp
 
-from infoseek.envs.log_weights import bayes_step, ess_rows, logsumexp_rows, normalised
+from infoseek.envs.log_weights import (
+    bayes_step,
+    ess_rows,
+    log_ess_rows,
+    logsumexp_rows,
+    normalised,
+)
 from infoseek.envs.order_statistics import order_statistic_pair, stable_argsort
 from infoseek.envs.resampling import systematic_resample_rows
 from infoseek.envs.roughening import coordinate_ranges, jitter
@@ -86,6 +92,49 @@ def test_bayes_step_accepts_as_the_progressive_correction_rule_says() -> None:
     _, _, _, untempered = bayes_step(prior, loglik, live, None)
     with np.errstate(invalid="ignore"):
         assert np.array_equal(untempered, live & np.isfinite(expected_z) & (expected_z >= -700.0))
+
+
+def _numpy_bayes_step(
+    prior: np.ndarray, loglik: np.ndarray, live: np.ndarray, tau: float | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The Bayes step written with NumPy calls, one quantity after the other."""
+    full = prior + loglik
+    log_z = _numpy_logsumexp_rows(full)
+    with np.errstate(invalid="ignore"):
+        accepted = live & np.isfinite(log_z) & (log_z >= -700.0)
+        if tau is not None and accepted.any():
+            rows = np.flatnonzero(accepted)
+            old = prior[rows]
+            prior_log_ess = 2.0 * _numpy_logsumexp_rows(old) - _numpy_logsumexp_rows(2.0 * old)
+            posterior = 2.0 * log_z[rows] - _numpy_logsumexp_rows(2.0 * full[rows])
+            accepted[rows] = posterior >= math.log(tau) + prior_log_ess
+    rows = np.flatnonzero(accepted)
+    return full[rows] - log_z[rows, None], log_z, accepted
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("tau", [None, 0.5, 0.05])
+def test_bayes_step_gives_the_numbers_of_its_numpy_form(seed: int, tau: float | None) -> None:
+    rng = np.random.default_rng(seed)
+    k, n = 12, [1, 8, 129, 2000, 300, 57][seed]
+    prior = np.log(rng.dirichlet(np.full(n, 0.3), size=k))
+    prior[: k // 2] = -math.log(n)  # resampled rows, equal log-weights
+    prior[1] = -0.7  # equal, unnormalised
+    loglik = rng.normal(0.0, 1.0, size=(k, n)) * rng.uniform(0.05, 4.0, size=(k, 1))
+    loglik[4] *= 400.0  # a sharp likelihood
+    loglik[rng.random((k, n)) < 0.05] = -np.inf
+    loglik[2] = -np.inf  # an impossible observation
+    loglik[3] -= 800.0  # degenerate evidence
+    live = rng.random(k) < 0.85
+    log_weights, weights, log_z, accepted = bayes_step(prior, loglik, live, tau)
+    expected_updated, expected_z, expected_accepted = _numpy_bayes_step(prior, loglik, live, tau)
+    assert np.array_equal(accepted, expected_accepted)
+    assert np.array_equal(log_z, expected_z)
+    assert np.array_equal(log_weights, expected_updated)
+    assert np.array_equal(weights, normalised(expected_updated))
+    uniform = np.full((3, n), -0.25)
+    expected_ess = 2.0 * _numpy_logsumexp_rows(uniform) - _numpy_logsumexp_rows(2.0 * uniform)
+    assert np.array_equal(log_ess_rows(uniform), expected_ess)
 
 
 def test_kernels_name_the_argument_they_reject() -> None:
