@@ -33,11 +33,13 @@ bit. :func:`state_addresses` hands out addresses only for exactly ``numpy.random
 generators and only after a check, on first use, that this NumPy stores the state as the
 module assumes (a 128-bit little-endian integer, then the increment; NumPy builds without
 128-bit integers store it otherwise); anywhere else it returns ``None`` and callers draw
-through the ``Generator`` itself.
+through the ``Generator`` itself. The kernels do not take the bit generator's lock: a generator
+must not be drawn from by another thread while a kernel draws from it.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -161,6 +163,7 @@ def _normals(address: np.uint64, out: NDArray[np.float64]) -> None:
         out[i] = standard_normal(address)
 
 
+@functools.cache
 def _layout_holds() -> bool:
     """Whether this NumPy's PCG64 state is laid out as the module assumes: compiled draws from
     a fresh generator equal NumPy's (uniforms and normals, the tail included) and leave the
@@ -182,17 +185,12 @@ def _address(rng: np.random.Generator) -> np.uint64:
     return np.uint64(rng.bit_generator.ctypes.state_address)
 
 
-_LAYOUT: dict[str, bool] = {}
-
-
 def state_addresses(rngs: Sequence[np.random.Generator]) -> NDArray[np.uint64] | None:
     """``(R,)`` state addresses of ``rngs`` for the compiled draws, or ``None`` when one of
     them is not exactly a ``PCG64`` generator or this NumPy's layout differs (module
     docstring). The addresses are valid while the generators live."""
     if not all(type(rng.bit_generator) is np.random.PCG64 for rng in rngs):
         return None
-    if "holds" not in _LAYOUT:
-        _LAYOUT["holds"] = _layout_holds()
-    if not _LAYOUT["holds"]:
+    if not _layout_holds():
         return None
     return np.array([rng.bit_generator.ctypes.state_address for rng in rngs], dtype=np.uint64)
