@@ -143,11 +143,14 @@ def _row_entropy(
     for j in range(d):
         bins[j] = max(1, int(np.rint(side[j] / cube)))
         cells *= bins[j]
+    per_side = np.empty(d)  # bins / side, divided once (the same quotient in every cell index)
+    for j in range(d):
+        per_side[j] = bins[j] / side[j]
     mass = np.zeros(cells)
     for i in range(n):
         flat = 0
         for j in range(d):
-            cell = int(math.floor((scaled[j, i] - box_low[j]) * (bins[j] / side[j])))
+            cell = int(math.floor((scaled[j, i] - box_low[j]) * per_side[j]))
             flat = flat * bins[j] + min(max(cell, 0), bins[j] - 1)
         mass[flat] += weights[i]
     plug_in, occupied = plug_in_entropy(mass)
