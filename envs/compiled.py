@@ -172,7 +172,7 @@ def pairwise_sum(values: Any) -> float:
     """
     count = values.shape[0]
     if count <= 128:
-        return _block_sum(values, 0, count)
+        return _block_sum(values, np.int64(0), count)  # int64, not a literal: one signature
     # pending nodes (start, count; count < 0 marks "add the two partial sums on top")
     node_start = np.empty(128, dtype=np.int64)
     node_count = np.empty(128, dtype=np.int64)

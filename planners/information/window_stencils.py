@@ -156,7 +156,9 @@ def _windows(
                 deltas[i] = position[i] - nearest
                 lowest_node = min(lowest_node, int(nodes[i]))
             start[p] = max(lowest_node - 1, 0)
-            widest = _fill(nodes, deltas, -start[p], 0, n_points - 1, targets[p], weights[p])
+            widest = _fill(
+                nodes, deltas, -start[p], np.int64(0), n_points - 1, targets[p], weights[p]
+            )
         width[p] = widest + 1
     return start, targets, weights, width
 
