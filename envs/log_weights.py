@@ -242,7 +242,7 @@ def bayes_step(
     tempering = tempering_ess is not None
     used = exponentials if tempering else exponentials[: full.shape[0]]
     np.exp(used, out=used)
-    log_floor = peak  # unread without tempering
+    log_floor = np.empty(0)  # read only when tempering
     if tempering_ess is not None:
         log_floor = math.log(tempering_ess) + log_ess_rows(log_weights)
     log_z, accepted, updated = _accepted_rows(full, peak, exponentials, live, log_floor, tempering)

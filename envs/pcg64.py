@@ -22,8 +22,8 @@ A double in :math:`[0, 1)` is :math:`\lfloor u / 2^{11} \rfloor \, 2^{-53}`.
 52-bit magnitude :math:`m = (u \gg 9) \bmod 2^{52}`, :math:`x = \pm m\,w_i`; accepted at once
 when :math:`m < k_i` (about 99 % of draws). Otherwise the base layer samples the tail beyond
 :math:`r = 3.6541528853610088` by Marsaglia's method (two doubles per attempt, ``log1p``) and
-the other layers accept :math:`x` when :math:`f_{i-1} + (f_i - f_{i-1})` -- precisely
-:math:`(f_{i-1} - f_i) U + f_i` -- is below :math:`e^{-x^2/2}`; a rejection starts over. The
+the other layers draw a double :math:`U` and accept :math:`x` when
+:math:`(f_{i-1} - f_i) U + f_i < e^{-x^2/2}`; a rejection starts over. The
 tables :math:`k_i, w_i, f_i` are NumPy's, as numba ships them for its own ``Generator``
 support.
 
