@@ -44,6 +44,7 @@ from infoseek.envs.log_weights import (
 from infoseek.envs.pcg64 import uniforms as draw_uniforms
 from infoseek.envs.resampling import gather_rows, systematic_resample, systematic_resample_rows
 from infoseek.envs.roughening import coordinate_ranges, jitter
+from infoseek.envs.sensors.arrays import has_nan_or_plus_inf
 from infoseek.envs.summaries import mass_grids, masses_within, weighted_means
 from infoseek.envs.targets import StationaryTarget, TargetMotion, TargetSpace
 
@@ -169,6 +170,9 @@ class BeliefBatch:
                 f"need one generator per belief ({particles.shape[0]}), got {len(rngs)}"
             )
         self.space = space
+        # the space's arrays, built once (TargetSpace is frozen): bounds, periodic angles
+        self._bounds = (space.low_array, space.high_array, space.periodic_mask)
+        self._angles = _angle_scale(space)
         self.rngs = list(rngs)
         self.motion = motion
         self.resample_threshold = float(resample_threshold)
@@ -504,30 +508,29 @@ class BeliefBatch:
         """Gordon roughening of ``(R, N, d)`` equally weighted particle sets, row ``r`` drawing
         from ``rngs[r]`` (see :mod:`infoseek.envs.belief`). With ``move_scale`` the jitter is a
         tempering-move proposal: ``move_scale`` times each coordinate's standard deviation."""
-        space = self.space
         r_rows, n, d = particles.shape
         if move_scale is None:
             spread = coordinate_ranges(particles)
-            idx, low, period, harmonic = _angle_scale(space)
+            idx, low, period, harmonic = self._angles
             if idx.size:
                 angles = particles[:, :, idx]
                 spread[:, idx] = circular_ranges(angles, low, period, harmonic)
         else:
             spread = self._spread(np.ascontiguousarray(particles.transpose(0, 2, 1)))
-        width = space.high_array - space.low_array
+        box_low, box_high, periodic = self._bounds
+        width = box_high - box_low
         if move_scale is None:
             # floor: a fully collapsed set (spread 0) would otherwise never be separated again
             spread = np.maximum(spread, SPREAD_FLOOR * width)
             std = self.roughening * spread * n ** (-1.0 / d)
         else:
             std = move_scale * np.maximum(spread, 1e-12 * width)
-        return jitter(particles, std, rngs, space.low_array, space.high_array, space.periodic_mask)
+        return jitter(particles, std, rngs, box_low, box_high, periodic)
 
     def _spread(self, columns: FloatArray) -> FloatArray:
         """``(R, d)`` standard deviation of each coordinate of particles given as ``(R, d, N)``
         columns (periodic ones: of the residuals about the circular mean)."""
-        space = self.space
-        idx, low, period, harmonic = _angle_scale(space)
+        idx, low, period, harmonic = self._angles
         r_rows, _, n = columns.shape
         spread = columns.std(axis=2)
         if idx.size:
@@ -552,7 +555,7 @@ class BeliefBatch:
         """``(K, d)`` MMSE estimates (eq. 12; circular/axial means of periodic angles)."""
         particles, weights = self._rows(rows)
         est = weighted_means(particles, weights)
-        idx, low, period, harmonic = _angle_scale(self.space)
+        idx, low, period, harmonic = self._angles
         if idx.size:
             est[:, idx] = circular_means(particles[:, :, idx], weights, low, period, harmonic)
         return est
@@ -610,7 +613,7 @@ def _sensor_log_likelihood(
 
 def _checked_total(sensor: Any, total: FloatArray) -> FloatArray:
     """``total`` (summed log-likelihoods), unless it holds NaN or +inf (then ``ValueError``)."""
-    if np.any(np.isnan(total)) or np.any(total == np.inf):
+    if has_nan_or_plus_inf(total):
         raise ValueError(
             f"sensor {getattr(sensor, 'name', sensor)!r}: log_likelihood returned NaN or +inf"
         )

@@ -570,6 +570,25 @@ def test_bad_update_and_estimate_inputs() -> None:
         belief.mass_grid((0, 3))
 
 
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_one_nan_or_plus_inf_likelihood_is_refused_minus_inf_is_not(bad: float) -> None:
+    class OneBadValue(GaussianPositionSensor):
+        def log_likelihood(self, z, poses, particles):
+            values = super().log_likelihood(z, poses, particles)
+            values[0, 137] = bad  # one particle of one reading
+            return values
+
+    belief = ParticleBelief.from_prior(
+        PLANAR, 500, np.random.default_rng(8), resample_threshold=0.0
+    )
+    if bad == -np.inf:  # an impossible particle: weight 0 (no resampling to move it)
+        belief.update(OneBadValue(), np.full((1, 2), 20.0), np.zeros((1, 2)))
+        assert belief.weights[137] == 0.0 and np.isclose(belief.weights.sum(), 1.0)
+        return
+    with pytest.raises(ValueError, match="gaussian_position.*NaN or \\+inf"):
+        belief.update(OneBadValue(), np.full((1, 2), 20.0), np.zeros((1, 2)))
+
+
 # --------------------------------------------------------------------------- tempering
 def _sharp_case(seed: int, **kwargs) -> tuple[ParticleBelief, BeliefUpdate, np.ndarray]:
     """2000 particles spread +-1 around the truth; one Gaussian position fix of std 3e-4.

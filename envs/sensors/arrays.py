@@ -58,6 +58,20 @@ def all_finite(array: NDArray[Any]) -> bool:
     return bool(_all_finite(array.reshape(-1)))
 
 
+@kernel
+def _nan_or_plus_inf(values: NDArray[Any]) -> bool:
+    for value in values:
+        if math.isnan(value) or value == math.inf:
+            return True
+    return False
+
+
+def has_nan_or_plus_inf(array: NDArray[Any]) -> bool:
+    """Whether some entry of a float64 array is NaN or ``+inf`` (log-likelihoods may be
+    ``-inf``, never these): one compiled pass, no temporaries."""
+    return bool(_nan_or_plus_inf(np.ascontiguousarray(array, dtype=np.float64).reshape(-1)))
+
+
 def as_points(
     array: object, name: str, last_dim: int, owner: str, dtype: type = np.float64
 ) -> FloatArray:
