@@ -133,7 +133,7 @@ def _features(features: str | None) -> str:
 
 
 @kernel
-def _block_sum(values: Any, start: int, count: int) -> float:
+def _block_sum(values: Any, start: int | np.int64, count: int) -> float:
     """NumPy's sum of ``count <= 128`` values from ``start`` (the leaves of the pairwise tree)."""
     if count < 8:
         total = 0.0

@@ -94,7 +94,7 @@ def _fill(
     nodes: NDArray[np.int32],
     deltas: NDArray[np.float32],
     shift: int,
-    low_edge: int,
+    low_edge: int | np.int64,
     high_edge: int,
     targets: NDArray[np.int32],
     weights: NDArray[np.float32],
