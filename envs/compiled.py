@@ -133,7 +133,7 @@ def _features(features: str | None) -> str:
 
 
 @kernel
-def _block_sum(values: Any, start: int | np.int64, count: int) -> float:
+def _block_sum(values: Any, start: int, count: int) -> float:
     """NumPy's sum of ``count <= 128`` values from ``start`` (the leaves of the pairwise tree)."""
     if count < 8:
         total = 0.0
@@ -172,7 +172,8 @@ def pairwise_sum(values: Any) -> float:
     """
     count = values.shape[0]
     if count <= 128:
-        return _block_sum(values, np.int64(0), count)  # int64, not a literal: one signature
+        # an int64 zero, not a literal: one compiled signature
+        return _block_sum(values, np.int64(0), count)  # type: ignore[arg-type]
     # pending nodes (start, count; count < 0 marks "add the two partial sums on top")
     node_start = np.empty(128, dtype=np.int64)
     node_count = np.empty(128, dtype=np.int64)

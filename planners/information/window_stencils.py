@@ -94,7 +94,7 @@ def _fill(
     nodes: NDArray[np.int32],
     deltas: NDArray[np.float32],
     shift: int,
-    low_edge: int | np.int64,
+    low_edge: int,
     high_edge: int,
     targets: NDArray[np.int32],
     weights: NDArray[np.float32],
@@ -156,8 +156,15 @@ def _windows(
                 deltas[i] = position[i] - nearest
                 lowest_node = min(lowest_node, int(nodes[i]))
             start[p] = max(lowest_node - 1, 0)
+            zero = np.int64(0)  # not a literal: one compiled signature of _fill
             widest = _fill(
-                nodes, deltas, -start[p], np.int64(0), n_points - 1, targets[p], weights[p]
+                nodes,
+                deltas,
+                -start[p],
+                zero,  # type: ignore[arg-type]
+                n_points - 1,
+                targets[p],
+                weights[p],
             )
         width[p] = widest + 1
     return start, targets, weights, width
