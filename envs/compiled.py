@@ -40,13 +40,25 @@ that is not writable), so only the first run after an install pays the compilati
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import os
 import platform
 import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, TypeVar
 
-__all__ = ["KERNEL_OPTIONS", "configure", "describe", "kernel", "pairwise_sum"]
+__all__ = [
+    "KERNEL_OPTIONS",
+    "KernelCache",
+    "configure",
+    "describe",
+    "kernel",
+    "kernel_sources_digest",
+    "pairwise_sum",
+    "sources_digest",
+]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -104,11 +116,47 @@ configure()
 
 import numba  # noqa: E402  (after configure: numba reads its settings on import)
 import numpy as np  # noqa: E402
+from numba.core.caching import FunctionCache  # noqa: E402
 
 
 def kernel(function: F) -> F:
-    """Compile ``function`` with :data:`KERNEL_OPTIONS` (lazily, on its first call)."""
-    return numba.njit(**KERNEL_OPTIONS)(function)  # type: ignore[no-any-return]
+    """Compile ``function`` with :data:`KERNEL_OPTIONS` (lazily, on its first call), cached on
+    disk by :class:`KernelCache`."""
+    options = {key: value for key, value in KERNEL_OPTIONS.items() if key != "cache"}
+    dispatcher = numba.njit(**options)(function)
+    if KERNEL_OPTIONS["cache"]:
+        dispatcher._cache = KernelCache(function)  # what njit(cache=True) sets, key extended
+    return dispatcher  # type: ignore[no-any-return]
+
+
+class KernelCache(FunctionCache):  # type: ignore[misc]
+    """numba's on-disk cache of one kernel, with :func:`kernel_sources_digest` in its index key.
+
+    numba keys a cached kernel by its own bytecode and notices changes to its own file only; a
+    kernel compiled together with callees from other files (``pairwise_sum``, the PCG64 draws)
+    would keep the old callees after those files changed (numba's documented limitation). With
+    the digest of every file that defines kernels in the key, any such change recompiles.
+    """
+
+    def _index_key(self, sig: Any, codegen: Any) -> tuple[Any, ...]:
+        return (*super()._index_key(sig, codegen), kernel_sources_digest())
+
+
+def sources_digest(root: Path) -> str:
+    """SHA-256 of the ``.py`` files under ``root/envs`` and ``root/planners`` that define kernels
+    (containing ``@kernel``): their paths relative to ``root`` and their bytes, in path order."""
+    digest = hashlib.sha256()
+    for path in sorted(p for folder in ("envs", "planners") for p in (root / folder).rglob("*.py")):
+        text = path.read_bytes()
+        if b"@kernel" in text:
+            digest.update(path.relative_to(root).as_posix().encode() + b"\0" + text)
+    return digest.hexdigest()
+
+
+@functools.cache
+def kernel_sources_digest() -> str:
+    """:func:`sources_digest` of infoseek's own packages (computed once per process)."""
+    return sources_digest(Path(__file__).resolve().parent.parent)
 
 
 def describe() -> dict[str, Any]:

@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
-from infoseek.envs.compiled import describe, pairwise_sum
+from infoseek.envs.compiled import describe, kernel_sources_digest, pairwise_sum, sources_digest
 
 
 @pytest.mark.parametrize("size", [*range(0, 140), 255, 256, 257, 1023, 2000, 10_001])
@@ -24,3 +29,50 @@ def test_kernels_compile_for_a_fixed_target_without_fast_math() -> None:
     assert settings["fastmath"] is False
     assert settings["svml"] is False
     assert settings["cpu_name"] in ("haswell", "generic", "host") or settings["cpu_name"]
+
+
+def test_sources_digest_follows_the_files_that_define_kernels(tmp_path: Path) -> None:
+    (tmp_path / "envs").mkdir()
+    (tmp_path / "planners" / "information").mkdir(parents=True)
+    kernel_file = tmp_path / "planners" / "information" / "k.py"
+    kernel_file.write_text("@kernel\ndef f(x):\n    return x + 1\n")
+    plain_file = tmp_path / "envs" / "plain.py"
+    plain_file.write_text("def g(x):\n    return x\n")
+    before = sources_digest(tmp_path)
+    plain_file.write_text("def g(x):\n    return 2 * x\n")  # no kernel: no recompilation
+    assert sources_digest(tmp_path) == before
+    kernel_file.write_text("@kernel\ndef f(x):\n    return x + 2\n")
+    assert sources_digest(tmp_path) != before
+    assert len(kernel_sources_digest()) == 64
+
+
+_LOAD_LOG = """
+import numpy as np
+from infoseek.envs import compiled
+if {patched!r}:
+    compiled.kernel_sources_digest = lambda: "another kernel source tree"
+from infoseek.envs.log_weights import bayes_step
+bayes_step(np.zeros((2, 5)), np.ones((2, 5)), np.ones(2, bool), 0.5)
+"""
+
+
+def test_a_kernel_is_compiled_again_when_another_kernel_file_changed(tmp_path: Path) -> None:
+    """numba alone would load ``_accepted_rows`` from its cache although its callee
+    ``pairwise_sum`` (another file) changed; the digest in the key makes it compile again."""
+
+    def run(patched: bool) -> str:
+        environment = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "NUMBA_DEBUG_CACHE": "1"}
+        result = subprocess.run(
+            [sys.executable, "-c", _LOAD_LOG.format(patched=patched)],
+            env=environment,
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        lines = (result.stdout + result.stderr).splitlines()
+        return "\n".join(line for line in lines if "_accepted_rows" in line)
+
+    assert "data saved" in run(patched=False)  # a cold cache: compiled and saved
+    assert "data loaded" in run(patched=False)  # the same sources: loaded
+    again = run(patched=True)  # the same file, other kernel sources: compiled again
+    assert "data saved" in again and "data loaded" not in again
