@@ -35,7 +35,9 @@ of earlier versions still verify.
 ``INFOSEEK_NATIVE_NUMERICS=1`` (as for :mod:`infoseek.experiments.numerics`) leaves numba's
 target to numba (the host CPU); an explicit ``NUMBA_CPU_NAME`` in the environment is respected.
 Compiled code is cached on disk next to the sources (or in numba's user cache directory when
-that is not writable), so only the first run after an install pays the compilation.
+that is not writable), so only the first run after an install pays the compilation. The cache
+key (:class:`KernelCache`) holds a digest of every source file that defines kernels besides
+numba's own key, so a kernel is compiled again when a kernel it calls from another file changed.
 """
 
 from __future__ import annotations
