@@ -215,7 +215,7 @@ def _block_sum(values: Any, start: int, count: int) -> float:
 def pairwise_sum(values: Any) -> float:
     """``numpy.sum`` of a contiguous 1-D float64 array, bit for bit (NumPy >= 2.3; earlier
     NumPy sums an array longer than 8192 values, its buffer size, in 8192-value chunks added in
-    sequence, so above that length the bits differ from those versions').
+    sequence, so above that length the bits differ from theirs).
 
     NumPy's pairwise summation: blocks of at most 128 values are summed by :func:`_block_sum`
     (sequentially below 8 values, with eight interleaved accumulators otherwise); a longer
