@@ -166,28 +166,10 @@ def _atan2(y: np.float32, x: np.float32, y_bits: np.int32, x_bits: np.int32) -> 
 
 
 @kernel
-def _arctan2_generic(
-    y: Float32Array,
-    x: Float32Array,
-    y_bits: NDArray[np.int32],
-    x_bits: NDArray[np.int32],
-    out: Float32Array,
-) -> None:
-    """:func:`_atan2` for finite non-zero ``y`` and ``x`` whose exponents are at most 60 apart,
-    without branches (:func:`_atan_non_negative`, the quadrant by selects), so that the loop
-    vectorises. Other elements are left to :func:`_arctan2_special`."""
-    for i in range(out.size):
-        r = _atan_non_negative(abs(y[i] / x[i]))
-        negative_y = y_bits[i] < 0
-        right = -r if negative_y else r
-        left = ((r - _PI_LO) - _PI) if negative_y else (_PI - (r - _PI_LO))
-        out[i] = left if x_bits[i] < 0 else right
-
-
-@kernel
 def _is_special(y_bits: np.int32, x_bits: np.int32) -> bool:
-    """Whether :func:`_arctan2_generic` does not apply to ``atan2(y, x)`` (a zero, an infinity
-    or a NaN, exponents more than 60 apart, ``x = 1``); branch-free, so loops vectorise."""
+    """Whether the branch-free loop of :func:`_arctan2_into` does not apply to ``atan2(y, x)``
+    (a zero, an infinity or a NaN, exponents more than 60 apart, ``x = 1``); branch-free, so
+    loops vectorise."""
     ix, iy = x_bits & 0x7FFFFFFF, y_bits & 0x7FFFFFFF
     k = (iy - ix) >> 23
     edge = (ix == 0) | (iy == 0) | (ix >= 0x7F800000) | (iy >= 0x7F800000)
@@ -195,26 +177,30 @@ def _is_special(y_bits: np.int32, x_bits: np.int32) -> bool:
 
 
 @kernel
-def _special_count(y_bits: NDArray[np.int32], x_bits: NDArray[np.int32]) -> int:
-    """How many elements :func:`_is_special`."""
-    count = 0
-    for i in range(y_bits.size):
-        count += _is_special(y_bits[i], x_bits[i])
-    return count
-
-
-@kernel
-def _arctan2_special(
+def _arctan2_into(
     y: Float32Array,
     x: Float32Array,
     y_bits: NDArray[np.int32],
     x_bits: NDArray[np.int32],
     out: Float32Array,
 ) -> None:
-    """:func:`_atan2` for the elements :func:`_is_special`."""
+    """:func:`_atan2` of every element into ``out``, in three loops: a branch-free one (the
+    quadrant by selects, :func:`_atan_non_negative`) for finite non-zero ``y`` and ``x`` whose
+    exponents are at most 60 apart, which vectorises; a branch-free count of the other elements
+    (:func:`_is_special`); and, where there are any, the scalar :func:`_atan2` for those."""
     for i in range(out.size):
-        if _is_special(y_bits[i], x_bits[i]):
-            out[i] = _atan2(y[i], x[i], y_bits[i], x_bits[i])
+        r = _atan_non_negative(abs(y[i] / x[i]))
+        negative_y = y_bits[i] < 0
+        right = -r if negative_y else r
+        left = ((r - _PI_LO) - _PI) if negative_y else (_PI - (r - _PI_LO))
+        out[i] = left if x_bits[i] < 0 else right
+    count = 0
+    for i in range(out.size):
+        count += _is_special(y_bits[i], x_bits[i])
+    if count:
+        for i in range(out.size):
+            if _is_special(y_bits[i], x_bits[i]):
+                out[i] = _atan2(y[i], x[i], y_bits[i], x_bits[i])
 
 
 def fdlibm_arctan2_float32(y: Float32Array, x: Float32Array) -> Float32Array:
@@ -236,9 +222,7 @@ def fdlibm_arctan2_float32(y: Float32Array, x: Float32Array) -> Float32Array:
     y_flat, x_flat = np.ascontiguousarray(y).ravel(), np.ascontiguousarray(x).ravel()
     out = np.empty(y_flat.shape, dtype=np.float32)
     y_bits, x_bits = y_flat.view(np.int32), x_flat.view(np.int32)
-    _arctan2_generic(y_flat, x_flat, y_bits, x_bits, out)
-    if _special_count(y_bits, x_bits):
-        _arctan2_special(y_flat, x_flat, y_bits, x_bits, out)
+    _arctan2_into(y_flat, x_flat, y_bits, x_bits, out)
     return out.reshape(y.shape)
 
 
