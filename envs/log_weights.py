@@ -48,13 +48,19 @@ DEGENERATE_LOG_EVIDENCE = -700.0
 
 
 @kernel
-def _log_normalisers(peak: FloatArray, sums: FloatArray) -> FloatArray:
-    """``peak + log(sums)`` where ``peak`` is finite, ``peak`` elsewhere (the C library's
+def _log_normaliser(peak: float, total: float) -> float:
+    """``log Z`` of a row from its maximum and the sum of ``exp(value - peak)``:
+    ``peak + log(total)`` where ``peak`` is finite, ``peak`` itself otherwise (the C library's
     ``log``, as ``math.log`` calls it)."""
-    out = peak.copy()
+    return peak + math.log(total) if math.isfinite(peak) else peak
+
+
+@kernel
+def _log_normalisers(peak: FloatArray, sums: FloatArray) -> FloatArray:
+    """:func:`_log_normaliser` of every row."""
+    out = np.empty(peak.shape[0])
     for k in range(peak.shape[0]):
-        if math.isfinite(peak[k]):
-            out[k] = peak[k] + math.log(sums[k])
+        out[k] = _log_normaliser(peak[k], sums[k])
     return out
 
 
@@ -121,9 +127,8 @@ def _uniform_log_ess(log_weights: FloatArray) -> tuple[FloatArray, BoolArray]:
         uniform[k] = is_uniform(log_weights[k])
         if uniform[k]:
             c = log_weights[k, 0]
-            once = c + math.log(float(n)) if math.isfinite(c) else c
-            twice = 2.0 * c + math.log(float(n)) if math.isfinite(2.0 * c) else 2.0 * c
-            out[k] = 2.0 * once - twice
+            once = _log_normaliser(c, float(n))
+            out[k] = 2.0 * once - _log_normaliser(2.0 * c, float(n))
     return out, uniform
 
 
@@ -183,13 +188,10 @@ def _accepted_rows(
     count = 0
     for k in range(k_rows):
         top = peak[k]
-        log_z[k] = top + math.log(pairwise_sum(exponentials[k])) if math.isfinite(top) else top
+        log_z[k] = _log_normaliser(top, pairwise_sum(exponentials[k]))
         ok = live[k] and math.isfinite(log_z[k]) and log_z[k] >= DEGENERATE_LOG_EVIDENCE
         if ok and tempering:
-            twice = 2.0 * top
-            log_z_twice = twice
-            if math.isfinite(twice):
-                log_z_twice = twice + math.log(pairwise_sum(exponentials[k_rows + k]))
+            log_z_twice = _log_normaliser(2.0 * top, pairwise_sum(exponentials[k_rows + k]))
             ok = 2.0 * log_z[k] - log_z_twice >= log_floor[k]
         accepted[k] = ok
         count += ok
