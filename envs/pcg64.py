@@ -172,17 +172,18 @@ def _layout_holds() -> bool:
         return False
     seed = 20061213
     ours, theirs = np.random.default_rng(seed), np.random.default_rng(seed)
+    address = _addresses([ours])
     normals = np.empty(4096)
-    _normals(_address(ours), normals)
-    uniform = _uniforms(np.array([_address(ours)] * 3, dtype=np.uint64))
+    _normals(address[0], normals)
+    uniform = _uniforms(np.repeat(address, 3))
     same = np.array_equal(normals, theirs.standard_normal(4096)) and np.array_equal(
         uniform, theirs.random(3)
     )
     return same and ours.bit_generator.state == theirs.bit_generator.state
 
 
-def _address(rng: np.random.Generator) -> np.uint64:
-    return np.uint64(rng.bit_generator.ctypes.state_address)
+def _addresses(rngs: Sequence[np.random.Generator]) -> NDArray[np.uint64]:
+    return np.array([rng.bit_generator.ctypes.state_address for rng in rngs], dtype=np.uint64)
 
 
 def state_addresses(rngs: Sequence[np.random.Generator]) -> NDArray[np.uint64] | None:
@@ -193,4 +194,4 @@ def state_addresses(rngs: Sequence[np.random.Generator]) -> NDArray[np.uint64] |
         return None
     if not _layout_holds():
         return None
-    return np.array([rng.bit_generator.ctypes.state_address for rng in rngs], dtype=np.uint64)
+    return _addresses(rngs)
