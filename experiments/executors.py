@@ -217,20 +217,21 @@ def _count_deaths(lost: list[TrialSpec], deaths: dict[str, int]) -> None:
 def _process_pool(specs: Iterable[TrialSpec], workers: int) -> Finished:
     """:func:`_pooled` on ``spawn``-ed process pools; workers of a pool stopped early (Ctrl-C,
     a failed trial, the generator closed) are terminated, since ``shutdown`` only cancels the
-    trials not yet started and the running ones would keep this process waiting at exit. A
-    pool whose trials all came back is shut down waiting for its (idle) workers, so that no
-    pool thread is left running into the interpreter's exit."""
+    trials not yet started and the running ones would keep this process waiting at exit. The
+    pool is then shut down waiting for its manager thread, which reaps the terminated workers
+    as well (a pool stopped without that wait could return while the thread still held a
+    reaped worker's exit code, the worker still listed as a live child). A pool whose trials
+    all came back is shut down the same way, so that no pool thread is left running into the
+    interpreter's exit."""
     others = set(multiprocessing.active_children())
 
     def start() -> Executor:
         return spawn_pool(workers)
 
     def stop(executor: Executor, finished: bool) -> None:
-        if finished:  # idle workers: joined now, not left to the interpreter's exit
-            executor.shutdown(wait=True)
-            return
-        executor.shutdown(wait=False, cancel_futures=True)
-        _terminate(set(multiprocessing.active_children()) - others)
+        if not finished:
+            _terminate(set(multiprocessing.active_children()) - others)
+        executor.shutdown(wait=True, cancel_futures=True)
 
     return _pooled(specs, workers, start, stop)
 
