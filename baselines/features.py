@@ -278,7 +278,7 @@ class EgocentricObservationExtractor(ScaledObservationExtractor):
         mean = masses @ self.cell_centres  # (B, 2)
         deviations = self.cell_centres[None, :, :] - mean[:, None, :]  # (B, cells, 2)
         variance = (masses[:, :, None] * deviations**2).sum(dim=1)
-        spread = torch.sqrt(variance) / self.half_size
+        spread = _sqrt(variance) / self.half_size
         parts = [
             scaled,
             torch.stack([cos, sin], dim=1),
@@ -296,6 +296,14 @@ class EgocentricObservationExtractor(ScaledObservationExtractor):
             moments = flat[:, self.moments_start : self.moments_start + 3]
             parts.append(_covariance_features(moments, cos, sin, to_estimate))
         return torch.cat(parts, dim=1)
+
+
+def _sqrt(values: torch.Tensor) -> torch.Tensor:
+    """The correctly rounded square root of float32 ``values``: taken in float64, then
+    rounded (exact, since float64 carries more than twice float32's digits). torch's float32
+    ``sqrt`` on the CPU goes through MKL's vector library, whose last bits depend on the CPU
+    (``docs/development.md``), so a policy would act differently on different machines."""
+    return torch.sqrt(values.double()).to(values.dtype)
 
 
 #: Names of the features :func:`_covariance_features` appends (module docstring).
@@ -324,15 +332,15 @@ def _covariance_features(
     forward = quadratic(cos, sin)
     left = quadratic(-sin, cos)
     mixed = -cos * sin * cxx + (cos * cos - sin * sin) * cxy + sin * cos * cyy
-    correlation = mixed / torch.sqrt(forward * left).clamp_min(1e-12)
+    correlation = mixed / _sqrt(forward * left).clamp_min(1e-12)
     distance = torch.linalg.vector_norm(to_estimate, dim=1).clamp_min(1e-6)
     ux, uy = to_estimate[:, 0] / distance, to_estimate[:, 1] / distance
-    along = torch.sqrt(quadratic(ux, uy))
-    across = torch.sqrt(quadratic(-uy, ux))
+    along = _sqrt(quadratic(ux, uy))
+    across = _sqrt(quadratic(-uy, ux))
     return torch.stack(
         [
-            torch.log(torch.sqrt(forward) + _EPSILON),
-            torch.log(torch.sqrt(left) + _EPSILON),
+            torch.log(_sqrt(forward) + _EPSILON),
+            torch.log(_sqrt(left) + _EPSILON),
             correlation.clamp(-1.0, 1.0),
             torch.log(along + _EPSILON),
             torch.log(across + _EPSILON),

@@ -23,6 +23,10 @@ The compiled kernels (:mod:`infoseek.envs.compiled`) are pinned there: one fixed
 (also set here for worker processes), no threaded reductions; their IEEE arithmetic gives the
 same bits whatever the target, which ``tests/test_cli.py`` checks by verifying a stored trial
 with ``NUMBA_CPU_NAME=generic``. :func:`describe` records numba's settings too.
+Trained policies run in torch, which links Intel's MKL: MKL picks its matrix-product and
+vector-function kernels from the CPU and its vendor (an AVX-512 Intel CPU and an AMD one give
+other last bits), so the pin selects MKL's ``COMPATIBLE`` branch (conditional numerical
+reproducibility: the same results on every Intel and compatible CPU) and ATen's AVX2 kernels.
 
 Setting ``INFOSEEK_NATIVE_NUMERICS=1`` leaves the environment as it is (faster on AVX-512
 machines; results then reproduce only on machines with the same kernels).
@@ -49,6 +53,10 @@ PINNED: dict[str, str] = {
         "AVX512_CLX AVX512_CNL AVX512FP16"
     ),
     "NUMBA_DISABLE_INTEL_SVML": "1",
+    # torch (trained policies): MKL's matrix products and vector functions in the branch
+    # that gives the same bits on every Intel and compatible CPU, ATen's AVX2 kernels.
+    "MKL_CBWR": "COMPATIBLE",
+    "ATEN_CPU_CAPABILITY": "avx2",
 }
 
 

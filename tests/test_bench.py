@@ -739,7 +739,9 @@ def test_the_committed_rl_bench_resumes_and_verifies_from_another_checkout(
 ) -> None:
     """The README's RL bench command, run against a copy of experiments/results/rl somewhere
     else, finds every trial stored (the groups are keyed by portable labels, not by the path of
-    the checkout that wrote them), and a stored trial of a policy group reproduces there."""
+    the checkout that wrote them), and a stored trial of a policy group reproduces there, with
+    ``infoseek verify`` in a fresh process (pinned numerics: this test process loaded NumPy and
+    torch unpinned, whose last bits depend on the CPU)."""
     pytest.importorskip("stable_baselines3")
     from infoseek.experiments.cli import main
 
@@ -762,8 +764,14 @@ def test_the_committed_rl_bench_resumes_and_verifies_from_another_checkout(
     assert "policy ppo_bearings_v0_4agents" in out and "..." not in out
     group = "policy:../ppo_20_step_episodes/model.zip/4"
     verify = ["verify", str(copy / "bench_20_steps"), "--trials", "1", "--group", group]
-    assert main([*verify, "--workers", "1", "--no-progress"]) == 0
-    assert "1 stored trial(s) rerun: 1 reproduced exactly" in capsys.readouterr().out
+    checked = subprocess.run(
+        [sys.executable, "-m", "infoseek.experiments", *verify, "--workers", "1", "--no-progress"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert checked.returncode == 0, checked.stdout + checked.stderr
+    assert "1 stored trial(s) rerun: 1 reproduced exactly" in checked.stdout
 
 
 def test_changed_settings_turn_the_base_env_into_the_other() -> None:

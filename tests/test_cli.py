@@ -618,6 +618,28 @@ def test_stored_trials_verify_under_another_blas_kernel(tmp_path: Path) -> None:
     assert "1 reproduced exactly" in checked.stdout
 
 
+RL_BENCH_STORE = (
+    Path(__file__).resolve().parents[1] / "experiments" / "results" / "rl" / "bench_20_steps"
+)
+
+
+@pytest.mark.parametrize("instructions", ["SSE4_2", "AVX2"])
+def test_stored_policy_trials_verify_whatever_instructions_mkl_may_use(instructions: str) -> None:
+    """A stored trained-policy trial (torch, which links MKL) reproduces with MKL limited to
+    another instruction set: the pin selects MKL's CPU-independent branch, and the features
+    take their square roots outside MKL's CPU-dependent vector library. Without the pin, MKL's
+    matrix products and vector functions give other last bits on an AVX-512 CPU than with
+    ``MKL_ENABLE_INSTRUCTIONS=AVX2``."""
+    pytest.importorskip("stable_baselines3")
+    group = ["--group", "policy:../ppo_20_step_episodes/model.zip/4"]
+    checked = _cli(
+        ["verify", str(RL_BENCH_STORE), "--trials", "1", *group, "--no-progress"],
+        MKL_ENABLE_INSTRUCTIONS=instructions,
+    )
+    assert checked.returncode == 0, checked.stdout + checked.stderr
+    assert "1 stored trial(s) rerun: 1 reproduced exactly" in checked.stdout
+
+
 FIG1_STORE = Path(__file__).resolve().parents[1] / "experiments" / "results" / "fig1" / "store"
 
 

@@ -74,7 +74,7 @@ def test_a_page_follows_its_store(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
 def test_provenance_reports_a_recorded_run_and_admits_a_missing_one(tmp_path: Path) -> None:
     """A store without runs says the machine is not known; one with a run names its machine
     and wall time, as recorded."""
-    shutil.copytree(RL_STORE, tmp_path / "store")
+    _copy_store(tmp_path / "store", trials=200, changed=0)  # written through the API: no run
     section = provenance_section(read_provenance(tmp_path / "store"))
     assert "machine and the wall-clock time of the commands that wrote it are not known" in section
     machine = {"cpu": "Test CPU", "cpus": 3, "memory_gib": 5.0, "system": "OS", "python": "3.x"}
