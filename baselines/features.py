@@ -299,9 +299,10 @@ class EgocentricObservationExtractor(ScaledObservationExtractor):
 
 
 def _sqrt(values: torch.Tensor) -> torch.Tensor:
-    """The correctly rounded square root of float32 ``values``: taken in float64, then
-    rounded (exact, since float64 carries more than twice float32's digits). torch's float32
-    ``sqrt`` on the CPU goes through MKL's vector library, whose last bits depend on the CPU
+    """The square root of float32 ``values``, taken in float64 and rounded to float32: the
+    correctly rounded value wherever the float64 root is (float64 has more than twice
+    float32's digits, so the second rounding is exact). torch's float32 ``sqrt`` on the CPU
+    goes through MKL's vector library, whose last bits depend on the CPU
     (``docs/development.md``), so a policy would act differently on different machines."""
     return torch.sqrt(values.double()).to(values.dtype)
 
