@@ -339,7 +339,11 @@ def test_pose_rows_compute_each_pose_once_and_start_again_past_the_budget():
 
 @pytest.mark.parametrize("length", [1, 9, 1200, 8192, 8193, 9216, 20000])
 def test_grid_entropies_equal_the_numpy_form_bit_for_bit(length):
-    from infoseek.planners.information.grid_entropy import entropy_sums, normalise_rows
+    from infoseek.planners.information.grid_entropy import (
+        entropy_sums,
+        float32_grid_entropies,
+        normalise_rows,
+    )
 
     rng = np.random.default_rng(length)
     grids = rng.standard_normal((3, length)) * np.exp(rng.uniform(-30.0, 5.0, (3, length)))
@@ -362,10 +366,78 @@ def test_grid_entropies_equal_the_numpy_form_bit_for_bit(length):
     normalise_rows(rows32)
     assert _same(rows32, density32)
     assert _same(entropy_sums(rows32, np.log(rows32)), expected32)
+    rows32 = grids32.copy()
+    assert _same(float32_grid_entropies(rows32), expected32)
+    assert _same(rows32, density32)
+    # subnormal cells other than the floor (distinct values, runs of equal ones), a row whose
+    # floor quotient is normal (its sum below 0.85) and one of a single cell
+    tiny = np.arange(1, 1 << 23, 997, dtype=np.int32).view(np.float32)
+    cells = rng.choice(grids32.size, size=min(tiny.size, grids32.size // 2), replace=False)
+    grids32.reshape(-1)[cells] = tiny[: cells.size]
+    grids32[:, 1 : min(4, length)] = tiny[-1]
+    grids32[2] *= np.float32(1e-3) / max(grids32[2].max(), np.float32(1e-30))
+    for grid in (grids32, grids32[:, :1]):
+        density32 = np.maximum(grid, np.float32(1e-38))
+        density32 /= density32.sum(axis=1, keepdims=True, dtype=np.float64).astype(np.float32)
+        expected32 = -np.sum(density32 * np.log(density32), axis=1, dtype=np.float64)
+        rows32 = grid.copy()
+        assert _same(float32_grid_entropies(rows32), expected32)
+        assert _same(rows32, density32)
+        rows32 = grid.copy()
+        normalise_rows(rows32)
+        assert _same(rows32, density32)
+        assert _same(entropy_sums(rows32, np.log(rows32)), expected32)
     with pytest.raises(TypeError, match="rows must be a float64 or float32"):
         normalise_rows(grids.astype(np.float16))
     with pytest.raises(ValueError, match="logs must have shape"):
         entropy_sums(rows, np.log(rows)[:2])
+
+
+_LOGARITHM_CHECK = """
+import numpy as np
+rng = np.random.default_rng(7)
+subnormal = np.arange(1, 1 << 23, dtype=np.int32).view(np.float32)
+normal = rng.uniform(1e-30, 2.0, subnormal.size).astype(np.float32)
+special = np.array([0.0, -0.0, np.inf, -np.inf, np.nan, -1e-40, -2.0, 1.0], dtype=np.float32)
+values = np.concatenate([subnormal, normal, special])
+rng.shuffle(values)
+with np.errstate(all="ignore"):
+    logs = np.log(values)
+    same = all(
+        np.log(values[order]).tobytes() == logs[order].tobytes()
+        for order in (rng.permutation(values.size), np.arange(values.size)[::-1])
+    )
+    for start in rng.integers(0, values.size - 8, 2000):
+        for stop in (start + 1, start + 3, start + 8):
+            same = same and np.log(values[start:stop]).tobytes() == logs[start:stop].tobytes()
+print("same" if same else "different")
+"""
+
+
+@pytest.mark.parametrize("pinned", [False, True], ids=["native", "pinned"])
+def test_numpys_float32_log_of_an_element_depends_on_that_element_alone(pinned):
+    """``float32_grid_entropies`` takes NumPy's log of each row's floor quotient apart from the
+    row: the same bits only if NumPy's loop computes each element from that element alone
+    (not from its neighbours or its lane), whichever SIMD target it dispatches to. All 2^23 - 1
+    positive subnormals shuffled among normal and special values, permuted and in short
+    slices, in this process's NumPy and in the pinned environment of stored trials (a fresh
+    interpreter: the pin must precede NumPy's import)."""
+    import os
+    import subprocess
+    import sys
+
+    from infoseek.experiments.numerics import PINNED
+
+    env = {**os.environ, **(PINNED if pinned else {})}
+    done = subprocess.run(
+        [sys.executable, "-c", _LOGARITHM_CHECK],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=env,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "same"
 
 
 def test_complex_multiply_is_numpy_complex64_multiply_bit_for_bit():

@@ -14,6 +14,13 @@ passes around it. Sums are NumPy's: the pairwise summation of :func:`~infoseek.e
 pairwise_sum` over a float64 row, and for float32 rows summed as float64 the same over blocks of
 8192 values (NumPy's casting buffer) added in order. So the entropies are the NumPy ones bit for
 bit.
+
+The float32 floor ``1e-38`` is subnormal (below ``2^-126``), and so is its quotient by a row's
+sum: typically a tenth of a window grid's cells. Arithmetic with a subnormal operand (a
+division, a product, NumPy's SIMD logarithm of a vector holding one) costs a microcode assist
+on many x86-64 CPUs, about a hundred cycles. :func:`float32_grid_entropies` therefore divides,
+takes the logarithm and multiplies for the floor once per row and leaves the vectorised passes
+only normal operands: the same IEEE operations on the same operands, fewer of them.
 """
 
 from __future__ import annotations
@@ -25,10 +32,14 @@ from infoseek.envs.compiled import kernel, pairwise_sum
 from infoseek.planners.information.base import FloatArray
 from infoseek.planners.information.kernel_arrays import require
 
-__all__ = ["entropy_sums", "normalise_rows", "pair_grids"]
+__all__ = ["entropy_sums", "float32_grid_entropies", "normalise_rows", "pair_grids"]
 
 #: Values NumPy casts per buffer in a reduction with a ``dtype`` (its default buffer size).
 CAST_BLOCK = 8192
+#: The clamp of float32 grids (a subnormal number: below :data:`SMALLEST_NORMAL32`).
+FLOOR32 = np.float32(1e-38)
+#: The smallest positive normal float32 (``2^-126``).
+SMALLEST_NORMAL32 = np.finfo(np.float32).smallest_normal
 
 
 @kernel
@@ -55,18 +66,34 @@ def _normalise64(rows: FloatArray) -> None:
 
 
 @kernel
-def _normalise32(rows: NDArray[np.float32]) -> None:
-    floor = np.float32(1e-38)
+def _normalise32(rows: NDArray[np.float32]) -> NDArray[np.float32]:
+    """Normalise in place (module docstring); returns each row's quotient of the floor."""
     buffer = np.empty(rows.shape[1])
+    floor_quotients = np.empty(rows.shape[0], dtype=np.float32)
     for r in range(rows.shape[0]):
-        for i in range(rows.shape[1]):
-            value = rows[r, i]
-            value = value if value >= floor else floor
-            rows[r, i] = value
+        row = rows[r]
+        others = 0  # subnormal values other than the floor (rare)
+        for i in range(row.shape[0]):
+            value = row[i]
+            value = value if value >= FLOOR32 else FLOOR32
+            row[i] = value
             buffer[i] = np.float64(value)
+            others += (value != FLOOR32) & (value < SMALLEST_NORMAL32)
         total = np.float32(_buffered_sum(buffer))
-        for i in range(rows.shape[1]):
-            rows[r, i] = rows[r, i] / total
+        # the floor's quotient once; the normal values' in one vectorised pass with no
+        # subnormal operand; any other subnormal value alone
+        quotient = FLOOR32 / total
+        floor_quotients[r] = quotient
+        for i in range(row.shape[0]):
+            value = row[i]
+            normal = value if value >= SMALLEST_NORMAL32 else np.float32(1.0)
+            row[i] = quotient if value == FLOOR32 else normal / total
+        if others:
+            for i in range(row.shape[0]):
+                value = np.float32(buffer[i])
+                if value != FLOOR32 and value < SMALLEST_NORMAL32:
+                    row[i] = value / total
+    return floor_quotients
 
 
 def normalise_rows(rows: NDArray[np.floating]) -> None:
@@ -84,6 +111,68 @@ def normalise_rows(rows: NDArray[np.floating]) -> None:
         _normalise64(rows)  # type: ignore[arg-type]
     else:
         _normalise32(rows)
+
+
+@kernel
+def _without_floor_quotients(
+    rows: NDArray[np.float32], floor_quotients: NDArray[np.float32]
+) -> NDArray[np.float32]:
+    """``rows`` with each row's floor quotient replaced by 1 (the input of the big log)."""
+    work = np.empty_like(rows)
+    for r in range(rows.shape[0]):
+        quotient = floor_quotients[r]
+        for i in range(rows.shape[1]):
+            value = rows[r, i]
+            work[r, i] = np.float32(1.0) if value == quotient else value
+    return work
+
+
+@kernel
+def _float32_entropy_sums(
+    rows: NDArray[np.float32],
+    logs: NDArray[np.float32],
+    floor_quotients: NDArray[np.float32],
+    floor_logs: NDArray[np.float32],
+) -> FloatArray:
+    """:func:`entropy_sums` of normalised float32 rows whose floor cells' logarithms are
+    ``floor_logs`` (the others' are ``logs``): each row's floor product once, the normal values'
+    products in one vectorised pass with no subnormal operand, any other subnormal one alone."""
+    result = np.empty(rows.shape[0])
+    buffer = np.empty(rows.shape[1])
+    for r in range(rows.shape[0]):
+        row, log_row = rows[r], logs[r]
+        quotient = floor_quotients[r]
+        product = quotient * floor_logs[r]
+        others = 0
+        for i in range(row.shape[0]):
+            value = row[i]
+            normal = value if value >= SMALLEST_NORMAL32 else np.float32(0.0)
+            buffer[i] = np.float64(product if value == quotient else normal * log_row[i])
+            others += (value != quotient) & (value < SMALLEST_NORMAL32)
+        if others:
+            for i in range(row.shape[0]):
+                value = row[i]
+                if value != quotient and value < SMALLEST_NORMAL32:
+                    buffer[i] = np.float64(value * log_row[i])
+        result[r] = -_buffered_sum(buffer)
+    return result
+
+
+def float32_grid_entropies(rows: NDArray[np.float32]) -> FloatArray:
+    """``(R,)`` entropies of float32 grid rows, normalised in place: ``normalise_rows(rows)``
+    then ``entropy_sums(rows, numpy.log(rows))``, bit for bit, without slow arithmetic on the
+    subnormal floor cells (module docstring). Their logarithm is NumPy's of each row's floor
+    quotient taken apart, which is the same number: NumPy's loop computes every element from
+    that element alone (``tests/test_information_kernels.py`` checks it for every subnormal).
+
+    Raises:
+        TypeError, ValueError: ``rows`` is not a C-contiguous ``(R, L)`` float32 array.
+    """
+    rows = require(rows, "rows", np.float32, (None, None))
+    floor_quotients = _normalise32(rows)
+    logs = np.log(_without_floor_quotients(rows, floor_quotients))
+    floor_logs = np.log(floor_quotients)
+    return _float32_entropy_sums(rows, logs, floor_quotients, floor_logs)  # type: ignore[no-any-return]
 
 
 @kernel

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from infoseek.planners.information.base import FloatArray
 from infoseek.planners.information.channels import BATCH_BUDGET
-from infoseek.planners.information.grid_entropy import entropy_sums, normalise_rows
+from infoseek.planners.information.grid_entropy import float32_grid_entropies
 from infoseek.planners.information.noise_kernel import NoiseKernel
 from infoseek.planners.information.pair_histograms import (
     full_grid_pair_histograms,
@@ -214,8 +214,9 @@ def _smoothed_entropies(
     The linear convolution along both axes, ``conv_a H conv_b^T`` (axes ``(c, m, out_b,
     out_a)``), is two float32 matrix products (probabilities to ~1e-7: far below any planning
     or test tolerance); non-periodic grids zero the output nodes outside the domain; the grids
-    are clamped at ``1e-38``, normalised and turned into ``-sum p log p`` by two compiled
-    passes around NumPy's float32 log (:mod:`~infoseek.planners.information.grid_entropy`).
+    are clamped at ``1e-38``, normalised and turned into ``-sum p log p`` by compiled passes
+    around NumPy's float32 log (:func:`~infoseek.planners.information.grid_entropy.
+    float32_grid_entropies`).
     """
     size, n_b = histogram.shape[:2]
     smoothed = np.matmul(histogram, conv_b.T)  # (size, n_b, width_a, out_b)
@@ -224,8 +225,7 @@ def _smoothed_entropies(
         density *= mask_a[:, None, None, :]
         density *= mask_b[None, :, :, None]
     rows = np.ascontiguousarray(density.reshape(size * n_b, -1))
-    normalise_rows(rows)
-    return entropy_sums(rows, np.log(rows)).reshape(size, n_b)
+    return float32_grid_entropies(rows).reshape(size, n_b)
 
 
 def full_grid_pair_entropies(
