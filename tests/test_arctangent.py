@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 import math
-import os
-import subprocess
-import sys
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import pytest
@@ -15,7 +14,6 @@ from infoseek.envs.arctangent import (
     fdlibm_arctan2_float32,
     numpy_arctan2_is_simd,
 )
-from infoseek.experiments.numerics import PINNED
 
 
 def _f32(bits: list[int]) -> np.ndarray:
@@ -165,7 +163,9 @@ def test_bad_input_names_the_argument() -> None:
         fdlibm_arctan2_float32(good, np.zeros(2, np.float32))
 
 
-def test_planners_use_numpy_only_where_numpy_has_its_own_simd_loop() -> None:
+def test_planners_use_numpy_only_where_numpy_has_its_own_simd_loop(
+    fresh_python: Callable[..., Any],
+) -> None:
     """Natively the dispatch follows NumPy's; in the pinned environment (NumPy's baseline
     loop, i.e. the C library's atan2f) the values are fdlibm's computed here."""
     rng = np.random.default_rng(4)
@@ -180,7 +180,5 @@ def test_planners_use_numpy_only_where_numpy_has_its_own_simd_loop() -> None:
         "x = np.array([0x429678C0], np.uint32).view(np.float32); "
         "print(numpy_arctan2_is_simd(), hex(int(arctan2_float32(y, x).view(np.uint32)[0])))"
     )
-    env = {k: v for k, v in os.environ.items() if k != "INFOSEEK_NATIVE_NUMERICS"}
-    env.update(PINNED)
-    pinned = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True, text=True)
+    pinned = fresh_python(probe, pinned=True)
     assert pinned.stdout.split() == ["False", "0x3f2e68cc"], pinned.stderr

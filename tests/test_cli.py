@@ -10,7 +10,9 @@ import shutil
 import subprocess
 import sys
 import warnings
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -575,15 +577,15 @@ def _cli(args: list[str], **environ: str) -> subprocess.CompletedProcess[str]:
     )
 
 
-def test_the_pin_leaves_numpy_no_avx512_loop_whatever_its_version_calls_them() -> None:
+def test_the_pin_leaves_numpy_no_avx512_loop_whatever_its_version_calls_them(
+    fresh_python: Callable[..., Any],
+) -> None:
     """In the pinned environment NumPy dispatches to no AVX-512 target. NumPy 2.4 names them
     X86_V4, AVX512_ICL, AVX512_SPR; earlier versions AVX512F ... AVX512_CNL, and a pin with
     only the new names left NumPy 2.3.5 on its AVX-512 loops (5 of 13 Fig. 1 trial 0s then
     diverged)."""
     probe = "from infoseek.experiments.numerics import describe; print(describe()['numpy_simd'])"
-    env = {k: v for k, v in os.environ.items() if k != "INFOSEEK_NATIVE_NUMERICS"}
-    env.update(PINNED)
-    run = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True, text=True)
+    run = fresh_python(probe, pinned=True)
     targets = json.loads(run.stdout.replace("'", '"'))
     assert targets, run.stderr
     assert not [t for t in targets if t.startswith("AVX512") or t == "X86_V4"], targets

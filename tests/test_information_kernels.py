@@ -8,6 +8,7 @@ utilities. Wrong dtypes and shapes must be refused with an error naming the argu
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -415,27 +416,16 @@ print("same" if same else "different")
 
 
 @pytest.mark.parametrize("pinned", [False, True], ids=["native", "pinned"])
-def test_numpys_float32_log_of_an_element_depends_on_that_element_alone(pinned):
+def test_numpys_float32_log_of_an_element_depends_on_that_element_alone(
+    pinned: bool, fresh_python: Callable[..., Any]
+) -> None:
     """``float32_grid_entropies`` takes NumPy's log of each row's floor quotient apart from the
     row: the same bits only if NumPy's loop computes each element from that element alone
     (not from its neighbours or its lane), whichever SIMD target it dispatches to. All 2^23 - 1
     positive subnormals shuffled among normal and special values, permuted and in short
     slices, in this process's NumPy and in the pinned environment of stored trials (a fresh
     interpreter: the pin must precede NumPy's import)."""
-    import os
-    import subprocess
-    import sys
-
-    from infoseek.experiments.numerics import PINNED
-
-    env = {**os.environ, **(PINNED if pinned else {})}
-    done = subprocess.run(
-        [sys.executable, "-c", _LOGARITHM_CHECK],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        env=env,
-    )
+    done = fresh_python(_LOGARITHM_CHECK, pinned=pinned)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "same"
 
