@@ -11,7 +11,7 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -735,7 +735,7 @@ def test_policy_labels_are_portable_and_readable(tmp_path: Path) -> None:
 
 
 def test_the_committed_rl_bench_resumes_and_verifies_from_another_checkout(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], fresh_cli: Callable[..., Any]
 ) -> None:
     """The README's RL bench command, run against a copy of experiments/results/rl somewhere
     else, finds every trial stored (the groups are keyed by portable labels, not by the path of
@@ -764,12 +764,7 @@ def test_the_committed_rl_bench_resumes_and_verifies_from_another_checkout(
     assert "policy ppo_bearings_v0_4agents" in out and "..." not in out
     group = "policy:../ppo_20_step_episodes/model.zip/4"
     verify = ["verify", str(copy / "bench_20_steps"), "--trials", "1", "--group", group]
-    checked = subprocess.run(
-        [sys.executable, "-m", "infoseek.experiments", *verify, "--workers", "1", "--no-progress"],
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+    checked = fresh_cli([*verify, "--workers", "1", "--no-progress"])
     assert checked.returncode == 0, checked.stdout + checked.stderr
     assert "1 stored trial(s) rerun: 1 reproduced exactly" in checked.stdout
 

@@ -565,18 +565,6 @@ def test_verify_reruns_stored_trials_and_names_the_ones_not_reproduced(
         assert message in capsys.readouterr().err
 
 
-def _cli(args: list[str], **environ: str) -> subprocess.CompletedProcess[str]:
-    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE", "NUMBA_CPU_NAME")}
-    env.update(environ)
-    return subprocess.run(
-        [sys.executable, "-m", "infoseek.experiments", *args],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-
-
 def test_the_pin_leaves_numpy_no_avx512_loop_whatever_its_version_calls_them(
     fresh_python: Callable[..., Any],
 ) -> None:
@@ -591,7 +579,9 @@ def test_the_pin_leaves_numpy_no_avx512_loop_whatever_its_version_calls_them(
     assert not [t for t in targets if t.startswith("AVX512") or t == "X86_V4"], targets
 
 
-def test_stored_trials_verify_under_another_blas_kernel(tmp_path: Path) -> None:
+def test_stored_trials_verify_under_another_blas_kernel(
+    tmp_path: Path, fresh_cli: Callable[..., Any]
+) -> None:
     """A stored trial verifies with another BLAS kernel asked for through OPENBLAS_CORETYPE
     (trial commands pin the numerical environment of infoseek.experiments.numerics before
     NumPy loads), and under a second numba target: the compiled kernels' IEEE arithmetic gives
@@ -599,7 +589,7 @@ def test_stored_trials_verify_under_another_blas_kernel(tmp_path: Path) -> None:
     out = tmp_path / "run"
     args = ["--planner", "pairwise", "--agents", "3", "--trials", "1", "--steps", "8"]
     args += ["--particles", "400", "--workers", "1", "--no-progress"]
-    written = _cli(["bench", *args, "--out", str(out)])
+    written = fresh_cli(["bench", *args, "--out", str(out)])
     assert written.returncode == 0, written.stderr
     manifest = json.loads((out / MANIFEST_NAME).read_text())
     assert manifest["numerics"]["pinned"] is True
@@ -607,14 +597,14 @@ def test_stored_trials_verify_under_another_blas_kernel(tmp_path: Path) -> None:
     assert manifest["numerics"]["scipy"] == scipy.__version__
     assert manifest["numerics"]["libc"] == (" ".join(platform.libc_ver()).strip() or "unknown")
     for kernel in ("SkylakeX", "Sandybridge"):
-        checked = _cli(["verify", str(out), "--no-progress"], OPENBLAS_CORETYPE=kernel)
+        checked = fresh_cli(["verify", str(out), "--no-progress"], OPENBLAS_CORETYPE=kernel)
         assert checked.returncode == 0, checked.stdout + checked.stderr
         assert "1 reproduced exactly" in checked.stdout
         assert f"C library {manifest['numerics']['libc']}" in checked.stdout
     numba = manifest["numerics"]["numba"]
     assert numba["fastmath"] is False and numba["svml"] is False
     other = "generic" if numba["cpu_name"] != "generic" else "x86-64"
-    checked = _cli(["verify", str(out), "--no-progress"], NUMBA_CPU_NAME=other)
+    checked = fresh_cli(["verify", str(out), "--no-progress"], NUMBA_CPU_NAME=other)
     assert checked.returncode == 0, checked.stdout + checked.stderr
     assert f"target {other}" in checked.stdout
     assert "1 reproduced exactly" in checked.stdout
@@ -626,7 +616,9 @@ RL_BENCH_STORE = (
 
 
 @pytest.mark.parametrize("instructions", ["SSE4_2", "AVX2"])
-def test_stored_policy_trials_verify_whatever_instructions_mkl_may_use(instructions: str) -> None:
+def test_stored_policy_trials_verify_whatever_instructions_mkl_may_use(
+    instructions: str, fresh_cli: Callable[..., Any]
+) -> None:
     """A stored trained-policy trial (torch, which links MKL) reproduces with MKL limited to
     another instruction set: the pin selects MKL's CPU-independent branch, and the features
     take their square roots outside MKL's CPU-dependent vector library. Without the pin, MKL's
@@ -634,7 +626,7 @@ def test_stored_policy_trials_verify_whatever_instructions_mkl_may_use(instructi
     ``MKL_ENABLE_INSTRUCTIONS=AVX2``."""
     pytest.importorskip("stable_baselines3")
     group = ["--group", "policy:../ppo_20_step_episodes/model.zip/4"]
-    checked = _cli(
+    checked = fresh_cli(
         ["verify", str(RL_BENCH_STORE), "--trials", "1", *group, "--no-progress"],
         MKL_ENABLE_INSTRUCTIONS=instructions,
     )
@@ -645,12 +637,12 @@ def test_stored_policy_trials_verify_whatever_instructions_mkl_may_use(instructi
 FIG1_STORE = Path(__file__).resolve().parents[1] / "experiments" / "results" / "fig1" / "store"
 
 
-def test_committed_fig1_trials_reproduce_on_this_machine() -> None:
+def test_committed_fig1_trials_reproduce_on_this_machine(fresh_cli: Callable[..., Any]) -> None:
     """The stored Fig. 1 results are the installed code's: the first trial of two groups is
     rerun from its seeds and must reproduce (in the pinned numerical environment)."""
     assert (FIG1_STORE / MANIFEST_NAME).exists()
     groups = ["--group", "single/4", "--group", "pairwise/3"]
-    checked = _cli(["verify", str(FIG1_STORE), "--trials", "1", *groups, "--no-progress"])
+    checked = fresh_cli(["verify", str(FIG1_STORE), "--trials", "1", *groups, "--no-progress"])
     assert checked.returncode == 0, checked.stdout + checked.stderr
     assert "2 stored trial(s) rerun: 2 reproduced exactly" in checked.stdout
 
@@ -669,7 +661,7 @@ F1(cosf, cos) F1(tanf, tan) F1(exp2f, exp2) F1(log2f, log2) F1(log10f, log10)
 
 
 def test_committed_fig1_trial_reproduces_under_a_correctly_rounded_float_libm(
-    tmp_path: Path,
+    tmp_path: Path, fresh_cli: Callable[..., Any]
 ) -> None:
     """The stored trials do not depend on the C library's float functions: with every one of
     them replaced (LD_PRELOAD) by the correctly rounded value, which newer glibc returns and
@@ -700,7 +692,7 @@ def test_committed_fig1_trial_reproduces_under_a_correctly_rounded_float_libm(
     if replaced.stdout.strip() != "0x3f2e68cd":  # glibc 2.36's fdlibm value: 0x3f2e68cc
         pytest.skip("LD_PRELOAD did not replace the C library's atan2f in this environment")
     group = ["--group", "pairwise/10"]
-    checked = _cli(
+    checked = fresh_cli(
         ["verify", str(FIG1_STORE), "--trials", "1", *group, "--no-progress"],
         LD_PRELOAD=str(library),
     )
@@ -708,12 +700,14 @@ def test_committed_fig1_trial_reproduces_under_a_correctly_rounded_float_libm(
     assert "1 stored trial(s) rerun: 1 reproduced exactly" in checked.stdout
 
 
-def test_committed_ablation_trial_of_a_switched_planner_reproduces() -> None:
+def test_committed_ablation_trial_of_a_switched_planner_reproduces(
+    fresh_cli: Callable[..., Any],
+) -> None:
     """The stored Claim A ablation is the installed code's: trial 0 of the planner that runs
     pairwise-node for five steps, then single-node, is rerun and must reproduce."""
     store = FIG1_STORE.parent.parent / "ablation" / "default" / "store"
     group = "infoseek.experiments.decisions:pairwise_first_5_steps/4"
-    checked = _cli(["verify", str(store), "--trials", "1", "--group", group, "--no-progress"])
+    checked = fresh_cli(["verify", str(store), "--trials", "1", "--group", group, "--no-progress"])
     assert checked.returncode == 0, checked.stdout + checked.stderr
     assert "1 stored trial(s) rerun: 1 reproduced exactly" in checked.stdout
 
@@ -765,15 +759,13 @@ def test_reproduce_horizon_adds_its_groups_to_a_fig1_store_and_writes_its_page(
     assert (tmp_path / "again.svg").read_bytes() == svg  # the same figure, the same bytes
 
 
-def test_a_study_directory_given_for_its_store_is_pointed_to_the_store(tmp_path: Path) -> None:
+def test_a_study_directory_given_for_its_store_is_pointed_to_the_store(
+    tmp_path: Path, fresh_cli: Callable[..., Any]
+) -> None:
     """``infoseek claims OUT`` after ``infoseek reproduce ... --out OUT``: the one-line error
     names ``OUT/store``."""
     _synthetic_store(tmp_path / "store", {("single", 4): [3, 4]}, steps=10)
-    result = subprocess.run(
-        [sys.executable, "-m", "infoseek.experiments", "claims", str(tmp_path)],
-        capture_output=True,
-        text=True,
-    )
+    result = fresh_cli(["claims", str(tmp_path)])
     assert result.returncode == 2
     assert result.stderr.strip().endswith(f"the results store of a study run is {tmp_path}/store")
     assert len(result.stderr.strip().splitlines()) == 1

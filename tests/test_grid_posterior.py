@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -218,22 +218,15 @@ FIG1_STORE = ROOT / "experiments/results/fig1/store"
 RESULTS = ROOT / "experiments/results/grid_posterior"
 
 
-def _pinned(args: list[str]) -> subprocess.CompletedProcess[str]:
-    """``python ARGS`` from the repository's root in a fresh interpreter: trial commands pin the
-    numerical environment before NumPy loads (infoseek.experiments.numerics), which this
-    process, NumPy loaded, cannot."""
-    return subprocess.run(
-        [sys.executable, *args], cwd=ROOT, capture_output=True, text=True, timeout=600
-    )
-
-
-def test_reproduce_grid_posterior_reruns_the_stored_episodes(tmp_path: Path) -> None:
+def test_reproduce_grid_posterior_reruns_the_stored_episodes(
+    tmp_path: Path, fresh_cli: Callable[..., Any]
+) -> None:
     """`infoseek reproduce grid_posterior --trials 1`: one trial per group, whose filter masses
     are the stored record's (read here from the store) and whose times to localise are those of
     its two mass series."""
     out = tmp_path / "gp"
     args = ["reproduce", "grid_posterior", "--trials", "1", "--workers", "1", "--out", str(out)]
-    done = _pinned(["-m", "infoseek.experiments", *args])
+    done = fresh_cli(args)
     assert done.returncode == 0, done.stdout + done.stderr
     trials, provenance = read_results(out)
     stored = {(v.planner, v.n_agents, v.trial): v for v in read_trials(FIG1_STORE)}
@@ -268,9 +261,9 @@ except RuntimeError as error:
 """
 
 
-def test_a_rerun_that_differs_from_the_store_is_an_error() -> None:
+def test_a_rerun_that_differs_from_the_store_is_an_error(fresh_python: Callable[..., Any]) -> None:
     """The stored masses pass; the same masses with one step moved by 1e-3 raise."""
-    done = _pinned(["-c", _DIFFERS])
+    done = fresh_python(_DIFFERS)
     assert done.returncode == 0, done.stderr
     assert "the rerun's filter masses differ from the store" in done.stdout
 
