@@ -201,6 +201,7 @@ class EgocentricObservationExtractor(ScaledObservationExtractor):
 
     cell_centres: torch.Tensor
     half_size: torch.Tensor
+    half_size_norm: torch.Tensor
     domain_centre: torch.Tensor
 
     def __init__(
@@ -246,55 +247,68 @@ class EgocentricObservationExtractor(ScaledObservationExtractor):
         self.register_buffer("cell_centres", torch.as_tensor(centres))
         self.register_buffer("half_size", torch.as_tensor(0.5 * (high - low)))
         self.register_buffer("domain_centre", torch.as_tensor(0.5 * (high + low)))
+        # not stored in model.zip: derived from half_size as the forward pass once did
+        self.register_buffer(
+            "half_size_norm", torch.linalg.vector_norm(self.half_size), persistent=False
+        )
         self._features_dim = n + 2 + 3 + 3 * n_others + 2 + 2
         if self.moments_start >= 0:
             self._features_dim += len(MOMENT_FEATURES)
 
     def forward(self, observations: torch.Tensor) -> torch.Tensor:
-        """``(batch, obs_dim)`` -> ``(batch, features_dim)``."""
+        """``(batch, obs_dim)`` -> ``(batch, features_dim)``.
+
+        Every vector is rotated in one pass and every square root taken in one: elementwise
+        arithmetic gives each entry the same bits whichever tensor it sits in, and the fewer
+        torch calls are what a policy's decision time is made of (a few microseconds each).
+        """
         flat = observations.reshape(observations.shape[0], -1).float()
         scaled = (flat - self.offset) / self.scale
-        position = flat[:, [self.x_index, self.y_index]]  # (B, 2)
+        if self.y_index == self.x_index + 1:
+            position = flat[:, self.x_index : self.x_index + 2]  # (B, 2)
+        else:
+            position = flat[:, [self.x_index, self.y_index]]
         if self.heading_index >= 0:
             heading = flat[:, self.heading_index]
         else:
             heading = torch.zeros_like(flat[:, 0])
         cos, sin = torch.cos(heading), torch.sin(heading)
-
-        def body(vectors: torch.Tensor) -> torch.Tensor:
-            """World-frame ``(B, ..., 2)`` -> body frame, divided by the half-size."""
-            c = cos.reshape(-1, *([1] * (vectors.dim() - 2)))
-            s = sin.reshape(-1, *([1] * (vectors.dim() - 2)))
-            forward = c * vectors[..., 0] + s * vectors[..., 1]
-            left = -s * vectors[..., 0] + c * vectors[..., 1]
-            return torch.stack([forward, left], dim=-1) / self.half_size
-
         to_estimate = flat[:, self.estimate_start : self.estimate_start + 2] - position
         others = flat[:, self.others_start : self.others_start + 2 * self.n_others]
         others = others.reshape(-1, self.n_others, 2)
+        distance = torch.linalg.vector_norm(to_estimate, dim=1)
         proximity = 1.0 / (1.0 + torch.linalg.vector_norm(others, dim=-1))
         masses = flat[:, self.grid_start : self.grid_start + self.grid_size]
         masses = masses / masses.sum(dim=1, keepdim=True).clamp_min(1e-12)
         mean = masses @ self.cell_centres  # (B, 2)
         deviations = self.cell_centres[None, :, :] - mean[:, None, :]  # (B, cells, 2)
         variance = (masses[:, :, None] * deviations**2).sum(dim=1)
-        spread = _sqrt(variance) / self.half_size
+        # world-frame (B, n_others + 2, 2) -> body frame, divided by the half-size
+        vectors = torch.cat(
+            [to_estimate[:, None], others, (self.domain_centre - position)[:, None]], dim=1
+        )
+        c, s = cos[:, None], sin[:, None]
+        forward = c * vectors[..., 0] + s * vectors[..., 1]
+        left = -s * vectors[..., 0] + c * vectors[..., 1]
+        body = torch.stack([forward, left], dim=-1) / self.half_size
         parts = [
             scaled,
             torch.stack([cos, sin], dim=1),
-            body(to_estimate),
-            (
-                torch.linalg.vector_norm(to_estimate, dim=1)
-                / torch.linalg.vector_norm(self.half_size)
-            )[:, None],
-            body(others).reshape(-1, 2 * self.n_others),
+            body[:, 0],
+            (distance / self.half_size_norm)[:, None],
+            body[:, 1:-1].reshape(-1, 2 * self.n_others),
             proximity,
-            body(self.domain_centre - position),
-            spread,
+            body[:, -1],
         ]
-        if self.moments_start >= 0:
-            moments = flat[:, self.moments_start : self.moments_start + 3]
-            parts.append(_covariance_features(moments, cos, sin, to_estimate))
+        if self.moments_start < 0:
+            parts.append(_sqrt(variance) / self.half_size)
+            return torch.cat(parts, dim=1)
+        moments = flat[:, self.moments_start : self.moments_start + 3]
+        spread, covariance = _covariance_features(
+            moments, cos, sin, to_estimate, distance, variance
+        )
+        parts.append(spread / self.half_size)
+        parts.append(covariance)
         return torch.cat(parts, dim=1)
 
 
@@ -320,32 +334,38 @@ _EPSILON = 0.01
 
 
 def _covariance_features(
-    moments: torch.Tensor, cos: torch.Tensor, sin: torch.Tensor, to_estimate: torch.Tensor
-) -> torch.Tensor:
-    """``(B, 6)`` :data:`MOMENT_FEATURES` from ``(B, 3)`` ``(s_x, s_y, rho)``, the heading's
-    ``cos``/``sin`` and the ``(B, 2)`` world-frame offset to the estimate."""
-    sx, sy, rho = moments[:, 0], moments[:, 1], moments[:, 2]
+    moments: torch.Tensor,
+    cos: torch.Tensor,
+    sin: torch.Tensor,
+    to_estimate: torch.Tensor,
+    distance: torch.Tensor,
+    variance: torch.Tensor,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """The grid's ``(B, 2)`` standard deviations ``sqrt(variance)`` and the ``(B, 6)``
+    :data:`MOMENT_FEATURES` from ``(B, 3)`` ``(s_x, s_y, rho)``, the heading's ``cos``/``sin``,
+    the ``(B, 2)`` world-frame offset to the estimate and its length ``distance``.
+
+    The four quadratic forms share one pass over stacked directions, all seven square roots
+    one :func:`_sqrt` and the five logarithms one ``torch.log``; each entry gets the bits it
+    would get alone (``tests/test_baselines.py`` checks that torch's float32 logarithm of an
+    element does not depend on its neighbours)."""
+    sx, sy, rho = moments[:, 0:1], moments[:, 1:2], moments[:, 2:3]
     cxx, cyy, cxy = sx * sx, sy * sy, rho * sx * sy
-
-    def quadratic(ux: torch.Tensor, uy: torch.Tensor) -> torch.Tensor:
-        return (ux * ux * cxx + 2.0 * ux * uy * cxy + uy * uy * cyy).clamp_min(0.0)
-
-    forward = quadratic(cos, sin)
-    left = quadratic(-sin, cos)
-    mixed = -cos * sin * cxx + (cos * cos - sin * sin) * cxy + sin * cos * cyy
-    correlation = mixed / _sqrt(forward * left).clamp_min(1e-12)
-    distance = torch.linalg.vector_norm(to_estimate, dim=1).clamp_min(1e-6)
+    distance = distance.clamp_min(1e-6)
     ux, uy = to_estimate[:, 0] / distance, to_estimate[:, 1] / distance
-    along = _sqrt(quadratic(ux, uy))
-    across = _sqrt(quadratic(-uy, ux))
-    return torch.stack(
-        [
-            torch.log(_sqrt(forward) + _EPSILON),
-            torch.log(_sqrt(left) + _EPSILON),
-            correlation.clamp(-1.0, 1.0),
-            torch.log(along + _EPSILON),
-            torch.log(across + _EPSILON),
-            torch.log(across / distance + _EPSILON),
-        ],
+    # directions (B, 4): forward, left, line of sight, across it
+    dx = torch.stack([cos, -sin, ux, -uy], dim=1)
+    dy = torch.stack([sin, cos, uy, ux], dim=1)
+    quadratic = (dx * dx * cxx + 2.0 * dx * dy * cxy + dy * dy * cyy).clamp_min(0.0)
+    forward, left = quadratic[:, 0], quadratic[:, 1]
+    mixed = -cos * sin * cxx[:, 0] + (cos * cos - sin * sin) * cxy[:, 0] + sin * cos * cyy[:, 0]
+    roots = _sqrt(torch.cat([variance, quadratic, (forward * left)[:, None]], dim=1))
+    correlation = mixed / roots[:, 6].clamp_min(1e-12)
+    # spreads forward, left, along and across the line of sight, angular spread
+    spreads = torch.cat([roots[:, 2:6], (roots[:, 5] / distance)[:, None]], dim=1)
+    logs = torch.log(spreads + _EPSILON)
+    covariance = torch.stack(
+        [logs[:, 0], logs[:, 1], correlation.clamp(-1.0, 1.0), logs[:, 2], logs[:, 3], logs[:, 4]],
         dim=1,
     )
+    return roots[:, :2], covariance

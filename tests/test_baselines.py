@@ -426,6 +426,90 @@ def test_egocentric_features_match_hand_computation():
         np.testing.assert_allclose(row[73:], expected, atol=2e-5)
 
 
+def _moment_features_by_hand(observation: np.ndarray, layout: dict) -> np.ndarray:
+    """The six ``belief_moments`` features of one observation, written out per entry."""
+    x, y, heading = (float(v) for v in observation[:3])
+    sx, sy, rho = (float(v) for v in observation[layout["belief_moments"]][:3])
+    covariance = np.array([[sx * sx, rho * sx * sy], [rho * sx * sy, sy * sy]])
+    forward = np.array([np.cos(heading), np.sin(heading)])
+    left = np.array([-np.sin(heading), np.cos(heading)])
+    offset = observation[layout["mmse_estimate"]].astype(np.float64) - [x, y]
+    distance = max(float(np.hypot(*offset)), 1e-6)
+    along = offset / distance
+    across = np.array([-along[1], along[0]])
+    spread = {
+        name: np.sqrt(max(float(u @ covariance @ u), 0.0))
+        for name, u in (("f", forward), ("l", left), ("a", along), ("c", across))
+    }
+    correlation = (forward @ covariance @ left) / max(spread["f"] * spread["l"], 1e-12)
+    return np.log(
+        [spread["f"] + 0.01, spread["l"] + 0.01, np.exp(np.clip(correlation, -1, 1))]
+        + [spread["a"] + 0.01, spread["c"] + 0.01, spread["c"] / distance + 0.01]
+    )
+
+
+def test_egocentric_moment_features_match_hand_computation():
+    """The body-frame covariance features of ``belief_moments`` observations (the shipped
+    policy's), including an estimate on the vehicle and a degenerate covariance."""
+    env = envs.make("bearings_v0", n_agents=3, n_particles=300, belief_moments=True)
+    offset, scale = observation_scaling(env)
+    extractor = EgocentricObservationExtractor(
+        env.observation_space("vehicle_0"), offset, scale, egocentric_layout(env)
+    )
+    layout = env.unwrapped.config.observation_layout
+    rng = np.random.default_rng(8)
+    observations = []
+    for seed in range(4):
+        obs, _ = env.reset(seed=seed)
+        for _ in range(rng.integers(0, 8)):
+            obs, *_ = env.step({a: rng.uniform(-0.5, 0.5, size=1) for a in env.agents})
+        observations += list(obs.values())
+    batch = np.stack(observations).astype(np.float32)
+    batch[0, layout["mmse_estimate"]] = batch[0, 0:2]  # the estimate where the vehicle is
+    moments = layout["belief_moments"].start  # (s_x, s_y, rho, mass)
+    batch[1, moments : moments + 3] = [0.0, 0.0, 0.0]
+    batch[2, moments : moments + 3] = [1.5, 0.2, -1.0]  # a rank-one covariance
+    features = extractor(torch.as_tensor(batch)).numpy()
+    plain = _egocentric_extractor(3, 300)[1]
+    assert features.shape[1] == plain.features_dim + 4 + 6  # the block scaled, then features
+    for observation, row in zip(batch, features, strict=True):
+        expected = _moment_features_by_hand(observation.astype(np.float64), layout)
+        np.testing.assert_allclose(row[-6:], expected, atol=5e-5, rtol=1e-5)
+
+
+_TORCH_LOGARITHM_CHECK = """
+import numpy as np, torch
+torch.set_num_threads(1)
+rng = np.random.default_rng(3)
+bits = rng.integers(0x3C23D70A, 0x7F000000, size=2_000_000, dtype=np.uint32)  # 0.01 .. 1.7e38
+values = torch.from_numpy(bits.view(np.float32).copy())
+whole = torch.log(values).view(torch.int32)
+same = True
+for length in (1, 2, 3, 4, 5, 6, 7, 8, 9, 16, 17, 20, 33):
+    for start in (0, 1, 3):
+        rows = values[start : start + 2000 * length].reshape(-1, length)
+        parts = torch.cat([torch.log(row) for row in rows]).view(torch.int32)
+        same &= bool(torch.equal(parts, whole[start : start + parts.numel()]))
+        columns = torch.stack([torch.log(rows[:, k]) for k in range(length)], 1)
+        same &= bool(torch.equal(columns.view(torch.int32), torch.log(rows).view(torch.int32)))
+print("same" if same else "different")
+"""
+
+
+@pytest.mark.parametrize("pinned", [False, True], ids=["native", "pinned"])
+def test_torchs_float32_log_of_an_element_depends_on_that_element_alone(
+    pinned: bool, fresh_python
+) -> None:
+    """The egocentric extractor takes five logarithms in one ``torch.log`` call: the bits of
+    five separate calls only if torch's float32 loop computes each element from that element
+    alone, whatever its neighbours, its position in a vector and the batch size. Checked in
+    this machine's torch and in the pinned environment of stored trials (``MKL_CBWR``,
+    ``ATEN_CPU_CAPABILITY``: set before torch loads, so in a fresh interpreter)."""
+    done = fresh_python(_TORCH_LOGARITHM_CHECK, pinned=pinned)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "same"
+
+
 def test_egocentric_features_are_rotation_equivariant():
     """Rotating the whole scene about the vehicle leaves the body-frame entries unchanged."""
     env, extractor, layout = _egocentric_extractor(2, 100)
