@@ -396,9 +396,9 @@ def _egocentric_by_hand(observation: np.ndarray, layout: dict, n_agents: int) ->
     return np.array(entries)
 
 
-def _egocentric_extractor(n_agents: int, n_particles: int):
+def _egocentric_extractor(n_agents: int, n_particles: int, **env_kwargs):
     """``(env, extractor, observation layout)`` for a ``bearings_v0`` of ``n_agents``."""
-    env = envs.make("bearings_v0", n_agents=n_agents, n_particles=n_particles)
+    env = envs.make("bearings_v0", n_agents=n_agents, n_particles=n_particles, **env_kwargs)
     offset, scale = observation_scaling(env)
     extractor = EgocentricObservationExtractor(
         env.observation_space("vehicle_0"), offset, scale, egocentric_layout(env)
@@ -406,17 +406,22 @@ def _egocentric_extractor(n_agents: int, n_particles: int):
     return env, extractor, env.unwrapped.config.observation_layout
 
 
-def test_egocentric_features_match_hand_computation():
-    env, extractor, layout = _egocentric_extractor(3, 300)
-    offset, scale = observation_scaling(env)
-    rng = np.random.default_rng(5)
+def _observations_along_random_episodes(env, rng, max_steps: int) -> np.ndarray:
+    """Every agent's float32 observation after ``0 .. max_steps - 1`` random steps of the
+    episodes seeded 0 .. 3, stacked."""
     observations = []
     for seed in range(4):
         obs, _ = env.reset(seed=seed)
-        for _ in range(rng.integers(0, 6)):
+        for _ in range(rng.integers(0, max_steps)):
             obs, *_ = env.step({a: rng.uniform(-0.5, 0.5, size=1) for a in env.agents})
         observations += list(obs.values())
-    batch = np.stack(observations).astype(np.float32)
+    return np.stack(observations).astype(np.float32)
+
+
+def test_egocentric_features_match_hand_computation():
+    env, extractor, layout = _egocentric_extractor(3, 300)
+    offset, scale = observation_scaling(env)
+    batch = _observations_along_random_episodes(env, np.random.default_rng(5), 6)
     features = extractor(torch.as_tensor(batch)).numpy()
     assert features.shape == (len(batch), extractor.features_dim)
     scaled = ScaledObservationExtractor(env.observation_space("vehicle_0"), offset, scale)
@@ -451,20 +456,8 @@ def _moment_features_by_hand(observation: np.ndarray, layout: dict) -> np.ndarra
 def test_egocentric_moment_features_match_hand_computation():
     """The body-frame covariance features of ``belief_moments`` observations (the shipped
     policy's), including an estimate on the vehicle and a degenerate covariance."""
-    env = envs.make("bearings_v0", n_agents=3, n_particles=300, belief_moments=True)
-    offset, scale = observation_scaling(env)
-    extractor = EgocentricObservationExtractor(
-        env.observation_space("vehicle_0"), offset, scale, egocentric_layout(env)
-    )
-    layout = env.unwrapped.config.observation_layout
-    rng = np.random.default_rng(8)
-    observations = []
-    for seed in range(4):
-        obs, _ = env.reset(seed=seed)
-        for _ in range(rng.integers(0, 8)):
-            obs, *_ = env.step({a: rng.uniform(-0.5, 0.5, size=1) for a in env.agents})
-        observations += list(obs.values())
-    batch = np.stack(observations).astype(np.float32)
+    env, extractor, layout = _egocentric_extractor(3, 300, belief_moments=True)
+    batch = _observations_along_random_episodes(env, np.random.default_rng(8), 8)
     batch[0, layout["mmse_estimate"]] = batch[0, 0:2]  # the estimate where the vehicle is
     moments = layout["belief_moments"].start  # (s_x, s_y, rho, mass)
     batch[1, moments : moments + 3] = [0.0, 0.0, 0.0]
