@@ -264,6 +264,35 @@ def test_beacon_direction_matches_vector_dipole_formula():
         assert logp[0] > logp[1]
 
 
+@pytest.mark.parametrize("max_snr", [5.0, math.inf])
+def test_beacon_kernel_parameters_are_the_scaled_fields_direction_and_norm(max_snr: float) -> None:
+    """Centre and shape against the 2-D dipole field written from its formula, for a
+    ``(2, 3)`` batch of poses and particles near and far (one at a receiver's ``1e-4``)."""
+    rng = np.random.default_rng(12)
+    sensor = BeaconSensor(moment=1000.0, noise_std=2.0, max_snr=max_snr)
+    poses = rng.uniform(0.0, 40.0, (2, 3, 2))
+    particles = np.column_stack(
+        [rng.uniform(0.0, 40.0, 30), rng.uniform(0.0, 40.0, 30), rng.uniform(0, 2 * math.pi, 30)]
+    )
+    particles[:10, :2] = poses[0, 0] + rng.normal(0.0, 1.0, (10, 2))
+    particles[10, :2] = poses[1, 2] + [1e-4, 0.0]
+    centre, shape = sensor.kernel_parameters(poses, particles)
+    assert centre.shape == shape.shape == (2, 3, 30)
+    assert np.all((centre >= 0.0) & (centre < math.pi))
+    for index in np.ndindex(2, 3):
+        for n in range(30):
+            offset = poses[index] - particles[n, :2]  # antenna -> receiver
+            r = math.hypot(*offset)
+            e_r = offset / r
+            axis = np.array([math.cos(particles[n, 2]), math.sin(particles[n, 2])])
+            mu = 1000.0 / max(r, 1e-3) ** 3 * (3.0 * (axis @ e_r) * e_r - axis) / 2.0
+            mu = mu * min(1.0, max_snr / math.hypot(*mu))
+            np.testing.assert_allclose(shape[index][n], math.hypot(*mu), rtol=1e-12)
+            direction = math.atan2(mu[1], mu[0]) % math.pi  # the field line: an axis
+            gap = abs(centre[index][n] - direction)
+            assert min(gap, math.pi - gap) < 1e-12
+
+
 def test_bearing_and_range_predictions():
     poses = np.array([[0.0, 0.0], [1.0, 1.0]])
     particles = np.array([[3.0, 4.0], [-1.0, 0.0], [1.0, 1.0 - 1e-9]])
