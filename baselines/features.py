@@ -288,8 +288,9 @@ class EgocentricObservationExtractor(ScaledObservationExtractor):
             [to_estimate[:, None], others, (self.domain_centre - position)[:, None]], dim=1
         )
         c, s = cos[:, None], sin[:, None]
-        forward = c * vectors[..., 0] + s * vectors[..., 1]
-        left = -s * vectors[..., 0] + c * vectors[..., 1]
+        along_x, along_y = vectors.unbind(-1)
+        forward = c * along_x + s * along_y
+        left = -s * along_x + c * along_y
         body = torch.stack([forward, left], dim=-1) / self.half_size
         parts = [
             scaled,
@@ -304,9 +305,7 @@ class EgocentricObservationExtractor(ScaledObservationExtractor):
             parts.append(_sqrt(variance) / self.half_size)
             return torch.cat(parts, dim=1)
         moments = flat[:, self.moments_start : self.moments_start + 3]
-        spread, covariance = _covariance_features(
-            moments, cos, sin, to_estimate, distance, variance
-        )
+        spread, covariance = _covariance_features(moments, c, s, to_estimate, distance, variance)
         parts.append(spread / self.half_size)
         parts.append(covariance)
         return torch.cat(parts, dim=1)
@@ -342,8 +341,9 @@ def _covariance_features(
     variance: torch.Tensor,
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """The grid's ``(B, 2)`` standard deviations ``sqrt(variance)`` and the ``(B, 6)``
-    :data:`MOMENT_FEATURES` from ``(B, 3)`` ``(s_x, s_y, rho)``, the heading's ``cos``/``sin``,
-    the ``(B, 2)`` world-frame offset to the estimate and its length ``distance``.
+    :data:`MOMENT_FEATURES` from ``(B, 3)`` ``(s_x, s_y, rho)``, the heading's ``(B, 1)``
+    ``cos``/``sin``, the ``(B, 2)`` world-frame offset to the estimate and its length
+    ``distance``.
 
     The four quadratic forms share one pass over stacked directions, all seven square roots
     one :func:`_sqrt` and the five logarithms one ``torch.log``; each entry gets the bits it
@@ -351,21 +351,18 @@ def _covariance_features(
     element does not depend on its neighbours)."""
     sx, sy, rho = moments[:, 0:1], moments[:, 1:2], moments[:, 2:3]
     cxx, cyy, cxy = sx * sx, sy * sy, rho * sx * sy
-    distance = distance.clamp_min(1e-6)
-    ux, uy = to_estimate[:, 0] / distance, to_estimate[:, 1] / distance
+    distance = distance.clamp_min(1e-6)[:, None]
+    unit = to_estimate / distance  # along the line of sight
+    ux, uy = unit[:, 0:1], unit[:, 1:2]
     # directions (B, 4): forward, left, line of sight, across it
-    dx = torch.stack([cos, -sin, ux, -uy], dim=1)
-    dy = torch.stack([sin, cos, uy, ux], dim=1)
+    dx = torch.cat([cos, -sin, ux, -uy], dim=1)
+    dy = torch.cat([sin, cos, uy, ux], dim=1)
     quadratic = (dx * dx * cxx + 2.0 * dx * dy * cxy + dy * dy * cyy).clamp_min(0.0)
-    forward, left = quadratic[:, 0], quadratic[:, 1]
-    mixed = -cos * sin * cxx[:, 0] + (cos * cos - sin * sin) * cxy[:, 0] + sin * cos * cyy[:, 0]
-    roots = _sqrt(torch.cat([variance, quadratic, (forward * left)[:, None]], dim=1))
-    correlation = mixed / roots[:, 6].clamp_min(1e-12)
+    mixed = -cos * sin * cxx + (cos * cos - sin * sin) * cxy + sin * cos * cyy
+    product = quadratic[:, 0:1] * quadratic[:, 1:2]  # forward x left
+    roots = _sqrt(torch.cat([variance, quadratic, product], dim=1))
+    correlation = (mixed / roots[:, 6:7].clamp_min(1e-12)).clamp(-1.0, 1.0)
     # spreads forward, left, along and across the line of sight, angular spread
-    spreads = torch.cat([roots[:, 2:6], (roots[:, 5] / distance)[:, None]], dim=1)
+    spreads = torch.cat([roots[:, 2:6], roots[:, 5:6] / distance], dim=1)
     logs = torch.log(spreads + _EPSILON)
-    covariance = torch.stack(
-        [logs[:, 0], logs[:, 1], correlation.clamp(-1.0, 1.0), logs[:, 2], logs[:, 3], logs[:, 4]],
-        dim=1,
-    )
-    return roots[:, :2], covariance
+    return roots[:, :2], torch.cat([logs[:, :2], correlation, logs[:, 2:]], dim=1)
