@@ -39,14 +39,16 @@ def _fresh(argv: list[str], environ: dict[str, str]) -> subprocess.CompletedProc
 
 @pytest.fixture
 def fresh_python() -> Callable[..., subprocess.CompletedProcess[str]]:
-    """``fresh_python(code, pinned=False)``: ``python -c code`` in a fresh interpreter, with the
-    pinned numerical environment of stored trials if ``pinned`` (it must be set before NumPy
-    loads, which this process, NumPy loaded, cannot do); stdout and stderr captured as text."""
+    """``fresh_python(code, pinned=False, **environ)``: ``python -c code`` in a fresh
+    interpreter, with the pinned numerical environment of stored trials if ``pinned`` (it must
+    be set before NumPy loads, which this process, NumPy loaded, cannot do) and ``environ``
+    added; stdout and stderr captured as text."""
 
-    def run(code: str, *, pinned: bool = False) -> subprocess.CompletedProcess[str]:
+    def run(code: str, *, pinned: bool = False, **environ: str) -> subprocess.CompletedProcess[str]:
         env = {k: v for k, v in os.environ.items() if k != "INFOSEEK_NATIVE_NUMERICS"}
         if pinned:
             env.update(PINNED)
+        env.update(environ)
         return _fresh(["-c", code], env)
 
     return run

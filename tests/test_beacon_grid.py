@@ -4,8 +4,7 @@ reruns, its options, and its page."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -50,14 +49,14 @@ except RuntimeError as error:
 """
 
 
-def test_a_rerun_is_the_stored_episode_and_a_different_one_is_an_error() -> None:
+def test_a_rerun_is_the_stored_episode_and_a_different_one_is_an_error(
+    fresh_python: Callable[..., Any],
+) -> None:
     """Trial 0 of single/4 on a coarse grid (100 x 100 x 16): the rerun's filter masses are the
     stored ones, the grid's time to localise is that of its mass series, and the stored masses
     with one step moved by 1e-3 raise (a fresh interpreter: trial commands pin the numerics
     before NumPy loads)."""
-    done = subprocess.run(
-        [sys.executable, "-c", _RERUN], cwd=ROOT, capture_output=True, text=True, timeout=600
-    )
+    done = fresh_python(_RERUN)
     assert done.returncode == 0, done.stderr
     first, second = done.stdout.strip().splitlines()
     result = json.loads(first)

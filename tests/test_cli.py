@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
 import platform
 import shutil
 import subprocess
@@ -22,7 +21,6 @@ from PIL import Image
 from infoseek.experiments.analysis import format_p_value, mass_curves
 from infoseek.experiments.cli import build_parser, main
 from infoseek.experiments.columns import TrialView
-from infoseek.experiments.numerics import PINNED
 from infoseek.experiments.plot import fig1_panels
 from infoseek.experiments.record import TrialRecord
 from infoseek.experiments.store import (
@@ -661,7 +659,7 @@ F1(cosf, cos) F1(tanf, tan) F1(exp2f, exp2) F1(log2f, log2) F1(log10f, log10)
 
 
 def test_committed_fig1_trial_reproduces_under_a_correctly_rounded_float_libm(
-    tmp_path: Path, fresh_cli: Callable[..., Any]
+    tmp_path: Path, fresh_python: Callable[..., Any], fresh_cli: Callable[..., Any]
 ) -> None:
     """The stored trials do not depend on the C library's float functions: with every one of
     them replaced (LD_PRELOAD) by the correctly rounded value, which newer glibc returns and
@@ -683,11 +681,7 @@ def test_committed_fig1_trial_reproduces_under_a_correctly_rounded_float_libm(
     probe = "import numpy as np; y = np.array([0x42740099], np.uint32).view(np.float32); "
     probe += "x = np.array([0x429678C0], np.uint32).view(np.float32); "
     probe += "print(hex(int(np.arctan2(y, x).view(np.uint32)[0])))"
-    pinned = {k: v for k, v in os.environ.items() if k != "INFOSEEK_NATIVE_NUMERICS"}
-    pinned.update(PINNED, LD_PRELOAD=str(library))
-    replaced = subprocess.run(
-        [sys.executable, "-c", probe], env=pinned, capture_output=True, text=True
-    )
+    replaced = fresh_python(probe, pinned=True, LD_PRELOAD=str(library))
     assert replaced.returncode == 0, replaced.stderr
     if replaced.stdout.strip() != "0x3f2e68cd":  # glibc 2.36's fdlibm value: 0x3f2e68cc
         pytest.skip("LD_PRELOAD did not replace the C library's atan2f in this environment")

@@ -4,9 +4,8 @@ against independent references (closed forms, brute-force image sums)."""
 from __future__ import annotations
 
 import math
-import os
-import subprocess
-import sys
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import pytest
@@ -26,7 +25,6 @@ from infoseek.envs.sensors import BeaconSensor, BearingSensor
 from infoseek.envs.sensors.beacon_kernel import summed_beacon_log_likelihood
 from infoseek.envs.sensors.wrapped_normal import summed_log_likelihood
 from infoseek.envs.targets import reflect_into_interval
-from infoseek.experiments.numerics import PINNED
 
 
 def _log_weights(rng: np.random.Generator, k: int, n: int) -> np.ndarray:
@@ -306,7 +304,9 @@ def test_summed_beacon_likelihood_is_the_sum_of_received_projected_normal_densit
         np.testing.assert_allclose(total[k, n], expected, rtol=1e-6, atol=1e-6)
 
 
-def test_summed_beacon_likelihood_is_the_numpy_masked_sum_bit_for_bit_when_pinned() -> None:
+def test_summed_beacon_likelihood_is_the_numpy_masked_sum_bit_for_bit_when_pinned(
+    fresh_python: Callable[..., Any],
+) -> None:
     """In the pinned numerical environment (a fresh process) the compiled pass returns the bits
     of ``log_likelihood`` masked and summed as NumPy sums it (so stored trials verify)."""
     script = """
@@ -329,10 +329,7 @@ for max_snr in (5.0, math.inf):
         assert np.array_equal(got, expected), (max_snr, groups, per, m, n)
 print("ok")
 """
-    env = {**os.environ, **PINNED}
-    run = subprocess.run(
-        [sys.executable, "-c", script], env=env, capture_output=True, text=True, check=False
-    )
+    run = fresh_python(script, pinned=True)
     assert run.returncode == 0 and run.stdout.strip() == "ok", run.stderr[-2000:]
 
 
