@@ -312,19 +312,21 @@ class BeliefBatch:
             self.log_weights, loglik, counts > 0, self.tempering_ess if tempering else None
         )
         plain = np.flatnonzero(accept)
-        special = [int(k) for k in live if not accept[k]]
-        if plain.size == k_rows:
-            self.log_weights, self.weights = log_weights, weights
-        elif plain.size:
-            self.log_weights = self.log_weights.copy()
-            self.weights = self.weights.copy()
-            self.log_weights[plain] = log_weights
-            self.weights[plain] = weights
         result.log_evidence[plain] = log_z[plain]
+        rows, row_particles, row_log_weights = [], [], []
+        special = [int(k) for k in live if not accept[k]]
         for k in special:  # progressive correction or recovery: that belief alone
             g = k // (k_rows // z.shape[0])
             mask = received[k]
-            self._update_row(k, sensor, z[g][mask], poses[g][mask], loglik[k], result)
+            changed = self._update_row(k, sensor, z[g][mask], poses[g][mask], loglik[k], result)
+            if changed is not None:
+                rows.append(k)
+                row_particles.append(changed[0])
+                row_log_weights.append(changed[1])
+        if plain.size == k_rows:
+            self.log_weights, self.weights = log_weights, weights
+        elif plain.size or rows:
+            self._write_rows(plain, log_weights, weights, rows, row_particles, row_log_weights)
         if self._moves_on():  # only the tempering moves read the history
             self.history.append(sensor, z, poses, received)
             dropped = np.flatnonzero((counts > 0) & (result.n_observations == 0))
@@ -339,6 +341,28 @@ class BeliefBatch:
         """Whether an update can run tempering moves (which target the kept observations)."""
         return self._tempering_on() and self.max_tempering_stages > 1 and self.roughening > 0.0
 
+    def _write_rows(
+        self,
+        plain: NDArray[np.intp],
+        plain_log_weights: FloatArray,
+        plain_weights: FloatArray,
+        rows: list[int],
+        particles: list[FloatArray],
+        log_weights: list[FloatArray],
+    ) -> None:
+        """Write an update's rows into new arrays, each array copied once (views handed out
+        earlier stay valid): the ``plain`` rows' log-weights and weights, and the ``(N, d)``
+        particles and ``(N,)`` log-weights of the tempered ``rows``."""
+        self.log_weights = self.log_weights.copy()
+        self.weights = self.weights.copy()
+        self.log_weights[plain] = plain_log_weights
+        self.weights[plain] = plain_weights
+        if rows:
+            self.particles = self.particles.copy()
+            self.particles[rows] = np.stack(particles)
+            self.log_weights[rows] = np.stack(log_weights)
+            self.weights[rows] = normalised(self.log_weights[rows])
+
     def _update_row(
         self,
         k: int,
@@ -347,18 +371,18 @@ class BeliefBatch:
         poses: FloatArray,
         loglik: FloatArray,
         result: BatchUpdate,
-    ) -> None:
+    ) -> tuple[FloatArray, FloatArray] | None:
         """The tempered update of belief ``k`` with degeneracy recovery (module docstring of
-        :mod:`infoseek.envs.belief`); writes the outcome into ``result``."""
-        rows = np.array([k])
+        :mod:`infoseek.envs.belief`); writes the outcome into ``result`` and returns belief
+        ``k``'s new ``(particles, log_weights)`` (``None``: unchanged, its readings dropped).
+        It reads row ``k`` only, so the caller may write every row's outcome at once."""
         particles, log_weights, log_evidence, stages = self._tempered_update(
             k, sensor, z, poses, self.particles[k], self.log_weights[k], loglik
         )
         result.log_evidence[k] = log_evidence
         if np.isfinite(log_evidence) and log_evidence >= DEGENERATE_LOG_EVIDENCE:
-            self.set_rows(rows, particles[None], log_weights[None])
             result.n_stages[k] = stages
-            return
+            return particles, log_weights
         result.recovered[k] = True
         n = self.n_particles
         n_fresh = min(n, max(1, math.ceil(self.recovery_fraction * n)))
@@ -371,11 +395,11 @@ class BeliefBatch:
             k, sensor, z, poses, candidate, np.full(n, -math.log(n)), loglik
         )
         if np.isfinite(retry) and retry >= DEGENERATE_LOG_EVIDENCE:
-            self.set_rows(rows, particles[None], log_weights[None])
             result.n_stages[k] = stages
-            return
+            return particles, log_weights
         result.n_observations[k] = 0  # still impossible: drop them, keep the prior belief
         result.n_stages[k] = 0
+        return None
 
     def _past_log_likelihood(
         self, past: list[tuple[Any, FloatArray, FloatArray]], particles: FloatArray

@@ -440,6 +440,79 @@ def test_read_only_views_are_stable_snapshots() -> None:
     assert belief.n_particles == 100 and belief.dim == 2
 
 
+def test_a_batch_update_of_plain_tempered_and_impossible_rows_equals_each_row_alone() -> None:
+    """One batch update where one belief takes the plain Bayes step, two are tempered (one of
+    them recovered from the prior) and one drops an impossible reading: every row equals the
+    same belief updated alone, bit for bit, and arrays handed out before the update keep
+    their values (the batch writes all its changed rows into new arrays at once)."""
+    from infoseek.envs.belief_batch import BeliefBatch
+
+    rng = np.random.default_rng(5)
+    fix = np.array([20.0, 20.0])
+    particles = np.stack(
+        [
+            fix + rng.uniform(-3.0, 3.0, (400, 2)),  # a 4-unit fix is mild: plain step
+            fix + rng.uniform(-1.0, 1.0, (400, 2)),  # sharp relative to the set: tempered
+            rng.uniform(0.0, 1.0, (400, 2)),  # all in a corner, far from the fix: recovered
+            rng.uniform(0.0, 40.0, (400, 2)),  # a reading no particle can explain: dropped
+        ]
+    )
+    readings = np.array([[[20.3, 19.8]], [[20.1, 20.2]], [[30.0, 30.0]], [[1e3, 1e3]]])
+    sensors = [GaussianPositionSensor(s) for s in (4.0, 1e-3, 0.7, 1e-3)]
+    settings = check_belief_settings(
+        motion=None,
+        resample_threshold=0.5,
+        roughening=0.2,
+        entropy_bins=None,
+        recovery_fraction=0.5,
+        tempering_ess=None,
+        max_tempering_stages=20,
+        space=PLANAR,
+    )
+    log_weights = np.full((4, 400), -math.log(400))
+    streams = [np.random.default_rng(100 + k) for k in range(4)]
+
+    class PerRowSensor(GaussianPositionSensor):  # belief k reads with sensors[k]
+        def log_likelihood(self, z, poses, particles):
+            return sensors[int(poses[0, 0])].log_likelihood(z, poses, particles)
+
+    poses = np.zeros((4, 1, 2))
+    poses[:, 0, 0] = np.arange(4)
+    batch = BeliefBatch(
+        particles.copy(),
+        log_weights.copy(),
+        PLANAR,
+        [np.random.default_rng(100 + k) for k in range(4)],
+        **settings,
+    )
+    handed_out = (batch.particles, batch.log_weights, batch.weights)
+    snapshots = [a.copy() for a in handed_out]
+    upd = batch.update(PerRowSensor(), readings, poses, np.ones((4, 1), dtype=bool))
+    assert list(upd.n_stages > 1) == [False, True, True, False]
+    assert list(upd.recovered) == [False, False, True, True]
+    assert list(upd.n_observations) == [1, 1, 1, 0]
+    for array, snapshot in zip(handed_out, snapshots, strict=True):
+        np.testing.assert_array_equal(array, snapshot)
+    for k in range(4):
+        alone = BeliefBatch(
+            particles[k : k + 1].copy(),
+            log_weights[k : k + 1].copy(),
+            PLANAR,
+            [streams[k]],
+            **settings,
+        )
+        one = alone.update(
+            PerRowSensor(), readings[k : k + 1], poses[k : k + 1], np.ones((1, 1), dtype=bool)
+        )
+        assert one.n_stages[0] == upd.n_stages[k] and one.log_evidence[0] == upd.log_evidence[k]
+        np.testing.assert_array_equal(alone.particles[0], batch.particles[k])
+        np.testing.assert_array_equal(alone.log_weights[0], batch.log_weights[k])
+        np.testing.assert_array_equal(alone.weights[0], batch.weights[k])
+        expected = np.exp(batch.log_weights[k])
+        np.testing.assert_array_equal(batch.weights[k], expected / expected.sum())
+    np.testing.assert_array_equal(batch.particles[3], particles[3])  # the dropped reading
+
+
 def test_empty_update_is_noop() -> None:
     belief = ParticleBelief.from_prior(PLANAR, 10, np.random.default_rng(0))
     upd = belief.update(GaussianPositionSensor(), np.zeros((0, 2)), np.zeros((0, 2)))
