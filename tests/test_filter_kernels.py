@@ -321,6 +321,15 @@ for max_snr in (5.0, math.inf):
         particles = rng.uniform(0.0, 40.0, (groups * per, n, 3))
         particles[:, : n // 2, :2] = poses[0, 0] + rng.normal(0.0, 0.05, (groups * per, n // 2, 2))
         particles[0, 0, :2] = poses[0, 0]  # a hypothesis at a receiver
+        # hypotheses whose field at that receiver is on the cap's edge: |mu| = 2 moment / r^3
+        # for an antenna pointing at it, so r = (2 moment / max_snr)^(1/3) (a few ulps and 1e-9 off)
+        edge = (2.0 * 1000.0 / max_snr) ** (1.0 / 3.0) if max_snr < math.inf else 7.0
+        factors = (1.0, 1 + 2e-16, 1 - 2e-16, 1 + 1e-12, 1 + 1e-9, 1 - 1e-9)
+        for j, factor in enumerate(factors[: n - 1]):
+            angle = rng.uniform(0.0, 2.0 * math.pi)
+            direction = np.array([math.cos(angle), math.sin(angle)])
+            particles[0, j + 1, :2] = poses[0, 0] - edge * factor * direction
+            particles[0, j + 1, 2] = angle + j % 2 * math.pi
         received = rng.random((groups * per, m)) < 0.8
         each = np.stack([sensor.log_likelihood(z[k // per], poses[k // per], particles[k])
                          for k in range(groups * per)], axis=1)
