@@ -21,8 +21,9 @@ Every drawn artist carries a ``gid``: a phrase of the legend entry that explains
 for the domain box), which ``tests/test_rendering.py`` uses to check that the legend names every
 kind of mark. The axes always contain the domain box, every vehicle and every trail. The
 figure and its artists are created once and updated in place between frames. ``rgb_array``
-frames are drawn with the Agg canvas (no display, no global backend change); ``human`` frames
-use pyplot's interactive figure. Matplotlib is imported only here, and this module is imported
+frames are drawn with the Agg canvas (no display, no global backend change), redrawing only the
+artists that change over the kept pixels of the rest (the same pixels as drawing the whole
+figure); ``human`` frames use pyplot's interactive figure. Matplotlib is imported only here, and this module is imported
 only when an environment renders.
 """
 
@@ -173,6 +174,9 @@ class SearchRenderer:
         self.inset: Any = None
         self._corner = INSET_CORNERS[0]
         self._scale_bar: Any = None
+        self._legend_version = 0  # counts the legends drawn (a new one changes the background)
+        self._background: Any = None  # the Agg pixels of the artists that stay between frames
+        self._background_key: tuple[Any, ...] | None = None
         self._fit_axes(np.empty((0, 2)))
 
     # -- artists
@@ -284,6 +288,7 @@ class SearchRenderer:
             labels.append(SCALE_LABEL)
         if self.legend is not None:
             self.legend.remove()
+        self._legend_version += 1
         # below the axes, so that it never hides particles or vehicles
         self.legend = self.axes.legend(
             handles,
@@ -367,7 +372,15 @@ class SearchRenderer:
 
     def _show_frame(self) -> NDArray[np.uint8] | None:
         """Draw the figure: in its window (``human``; returns ``None``) or off-screen, returning
-        the ``(H, W, 3)`` uint8 RGB pixels."""
+        the ``(H, W, 3)`` uint8 RGB pixels.
+
+        Off-screen, the artists that stay between frames (axes, ticks, labels, domain box,
+        legend) are drawn once and their pixels kept until the axes limits or the legend
+        change; each frame restores them and draws the changing artists on top (matplotlib's
+        blitting), in the order a full draw takes (z-order, then the axes' child order). No
+        changing artist reaches the spines (the limits keep a margin around everything drawn),
+        so the frames equal full draws.
+        """
         if self.human:
             import matplotlib.pyplot as plt
 
@@ -375,8 +388,28 @@ class SearchRenderer:
             plt.pause(1.0 / self.fps)
             return None
         canvas = self.figure.canvas
-        canvas.draw()
+        changing = self._changing_artists()
+        for artist in changing:
+            artist.set_animated(True)  # left out of canvas.draw(), drawn below
+        key = (self.axes.get_xlim(), self.axes.get_ylim(), self._legend_version)
+        if key != self._background_key:
+            canvas.draw()
+            self._background = canvas.copy_from_bbox(self.figure.bbox)  # type: ignore[attr-defined]
+            self._background_key = key
+        else:
+            canvas.restore_region(self._background)  # type: ignore[attr-defined]
+        for artist in changing:
+            self.axes.draw_artist(artist)
         return np.asarray(canvas.buffer_rgba())[..., :3].copy()  # type: ignore[attr-defined]
+
+    def _changing_artists(self) -> list[Any]:
+        """The artists updated between frames (particles, trails, vehicles, arrows, estimate,
+        truth, title, zoom inset), sorted as :meth:`Axes.draw` sorts the axes' children."""
+        changing = [self._particles, *self.trail_lines, self._heads, self.arrows]
+        changing += [self._estimate, self._target, self.title_artist, self.inset]
+        ids = {id(artist) for artist in changing if artist is not None}
+        children = [child for child in self.axes.get_children() if id(child) in ids]
+        return sorted(children, key=lambda artist: artist.get_zorder())
 
     def _update_inset(
         self,

@@ -121,6 +121,50 @@ def test_inset_appears_exactly_when_the_belief_has_collapsed() -> None:
     env.close()
 
 
+def _full_draw(renderer: SearchRenderer) -> np.ndarray:
+    """The figure drawn whole by matplotlib (no kept background), as RGB pixels."""
+    for artist in renderer.figure.findobj(lambda artist: artist.get_animated()):
+        artist.set_animated(False)
+    canvas = renderer.figure.canvas
+    canvas.draw()
+    return np.asarray(canvas.buffer_rgba())[..., :3].copy()
+
+
+@pytest.mark.parametrize("space", ["planar", "planar_with_orientation"])
+def test_every_frame_equals_a_full_draw_of_the_figure(space: str) -> None:
+    """Frames redraw only the changing artists over kept pixels: each equals the whole figure
+    drawn again, while the belief collapses (the inset appears, moves corner and hides), the
+    vehicles leave the domain (the limits grow) and stay (the pixels are reused)."""
+    from infoseek.envs.targets import TargetSpace
+
+    target_space = getattr(TargetSpace, space)()
+    renderer = SearchRenderer(target_space)
+    rng = np.random.default_rng(3)
+    spread = np.column_stack([rng.uniform(0.0, 40.0, (400, 2)), rng.uniform(0.0, 6.0, 400)])
+    t = np.linspace(0.0, 1.0, 12)[:, None]
+    outward = np.stack([(1 - t) * [5.0, 20.0] + t * [-25.0, 20.0], t * [60.0, 30.0]], axis=1)
+    canvas = renderer.figure.canvas
+    whole = canvas.draw
+    whole_draws = []
+    canvas.draw = lambda: (whole_draws.append(1), whole())[1]  # counts the renderer's calls
+    for step in range(12):
+        centre = [30.0, 30.0] if step < 8 else [8.0, 35.0]  # the inset changes corner at 8
+        tight = np.column_stack([rng.normal(centre, 0.2, (400, 2)), rng.uniform(0.0, 6.0, 400)])
+        particles = (tight if 4 <= step < 10 else spread)[:, : target_space.dim]
+        weights = rng.dirichlet(np.ones(400))
+        trails = outward[: min(step, 6) + 1]  # out of the domain until step 6, then hovering
+        headings = np.array([[-1.0, 0.0], [0.0, 1.0]])
+        frame = _draw(
+            renderer, particles, weights, trails=trails, step=step, headings=headings, radius=1.0
+        )
+        canvas.draw = whole
+        np.testing.assert_array_equal(frame, _full_draw(renderer), err_msg=f"step {step}")
+        canvas.draw = lambda: (whole_draws.append(1), whole())[1]
+    assert renderer.inset is not None
+    assert len(whole_draws) <= 7  # steps 7-11 (limits and legend unchanged) reuse the pixels
+    renderer.close()
+
+
 def test_interrupted_demo_writes_the_frames_so_far_and_exits_130(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
