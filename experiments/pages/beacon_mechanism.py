@@ -19,9 +19,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy import stats
 
-from infoseek.experiments.analysis import format_p_value, times_to_localise, wilcoxon_faster
+from infoseek.experiments.analysis import (
+    format_p_value,
+    times_to_localise,
+    wilcoxon_faster,
+    wilcoxon_two_sided,
+)
 from infoseek.experiments.columns import TrialView, read_trials
 from infoseek.experiments.decision_differences import (
     DecisionRow,
@@ -70,7 +74,7 @@ def paired_ttl(planner: dict[int, float], reference: dict[int, float]) -> Paired
     mine = np.array([planner[k] for k in common])
     theirs = np.array([reference[k] for k in common])
     gain, se, p_sooner = wilcoxon_faster(theirs, mine)
-    two_sided = 1.0 if not np.any(theirs != mine) else float(stats.wilcoxon(theirs, mine).pvalue)
+    two_sided = wilcoxon_two_sided(theirs, mine)
     return PairedTtl(
         len(common), float(mine.mean()), float(theirs.mean()), gain, se, p_sooner, two_sided
     )

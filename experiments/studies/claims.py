@@ -39,7 +39,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
 from infoseek.experiments.analysis import (
     Trial,
@@ -53,6 +52,7 @@ from infoseek.experiments.analysis import (
     summarise,
     times_to_localise,
     wilcoxon_faster,
+    wilcoxon_two_sided,
 )
 from infoseek.experiments.arguments import check_results_directory
 from infoseek.experiments.bound import bound_report
@@ -197,7 +197,7 @@ def baseline_lines(records: Sequence[Trial], baseline: Sequence[Trial], steps: i
         b = np.array([old[k] for k in trials])
         difference = a - b
         stderr = float(np.std(difference, ddof=1) / np.sqrt(difference.size))
-        p = 1.0 if not np.any(difference) else float(stats.wilcoxon(a, b).pvalue)
+        p = wilcoxon_two_sided(a, b)
         lines.append(
             f"  {planner}/{n_agents}: {len(trials)} paired trials, mean ttl {a.mean():.2f} "
             f"(baseline {b.mean():.2f}), difference {difference.mean():+.2f} +- {stderr:.2f} "
@@ -279,6 +279,8 @@ def claim_b_lines(
             f"steps, one-sided Wilcoxon p {format_p_value(p)}"
         )
     if len(sizes) >= 3:
+        from scipy import stats  # imported here: slow to import (infoseek.experiments.analysis)
+
         page = stats.page_trend_test(data)
         verdict = "holds" if page.pvalue < alpha else "not supported"
         test = f"Page's L = {page.statistic:.1f}, p {format_p_value(page.pvalue)}"

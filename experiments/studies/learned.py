@@ -44,7 +44,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
 from infoseek.experiments.analysis import (
     Trial,
@@ -229,6 +228,8 @@ def interquartile_mean(values: Sequence[float], seed: int = 0) -> Interval:
     data = np.asarray(values, dtype=np.float64)
     if data.size < 2:
         raise ValueError(f"an interquartile mean over seeds needs >= 2 values, got {data.size}")
+
+    from scipy import stats  # imported here: slow to import (infoseek.experiments.analysis)
 
     def iqm(sample: np.ndarray, axis: int = -1) -> np.ndarray:
         return np.asarray(stats.trim_mean(sample, 0.25, axis=axis))
