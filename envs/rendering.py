@@ -23,8 +23,8 @@ kind of mark. The axes always contain the domain box, every vehicle and every tr
 figure and its artists are created once and updated in place between frames. ``rgb_array``
 frames are drawn with the Agg canvas (no display, no global backend change), redrawing only the
 artists that change over the kept pixels of the rest (the same pixels as drawing the whole
-figure); ``human`` frames use pyplot's interactive figure. Matplotlib is imported only here, and this module is imported
-only when an environment renders.
+figure); ``human`` frames use pyplot's interactive figure. Matplotlib is imported only here,
+and this module is imported only when an environment renders.
 """
 
 from __future__ import annotations
