@@ -130,7 +130,9 @@ class SearchRenderer:
         fps: Frames per second of the ``human`` window.
 
     Attributes:
-        figure: The matplotlib figure (reused between frames).
+        figure: The matplotlib figure (reused between frames). Off-screen, its changing
+            artists are marked animated (drawn by each frame over the kept pixels):
+            ``figure.savefig`` draws them, a bare ``figure.canvas.draw()`` leaves them out.
         axes: Its main axes (domain box, particles, trails, markers).
         legend: The legend (created with the first vehicles drawn).
         trail_lines: One line per vehicle, in that vehicle's colour.
