@@ -122,6 +122,13 @@ def add_timing_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--rounds", type=int, default=3, help="alternations with --baseline (default 3)"
     )
+    parser.add_argument(
+        "--statistic",
+        choices=("median", "mean"),
+        default="median",
+        help="with --baseline: the statistic of each process's calls that is compared (mean: "
+        "what a step costs on average, rare expensive calls included)",
+    )
 
 
 def machine_description() -> dict[str, Any]:
@@ -448,10 +455,17 @@ def run_timing(args: argparse.Namespace) -> int:
     selected = list(args.only) if args.only else list(BENCHMARKS)
     if args.json is not None:
         check_writable_file(args.json, "--json")
+    if args.statistic != "median" and args.baseline is None:
+        raise ValueError(
+            "--statistic compares --baseline runs; without --baseline the table prints both "
+            "the median and the mean"
+        )
     if args.baseline is not None:
         from infoseek.experiments.timing_ab import run_alternating
 
-        return run_alternating(args.baseline, selected, args.repeats, args.rounds, args.json)
+        return run_alternating(
+            args.baseline, selected, args.repeats, args.rounds, args.json, args.statistic
+        )
     results = _run(selected, args.repeats)
     machine = machine_description()
     print(

@@ -4,8 +4,10 @@ A machine's speed drifts from minute to minute (other jobs, frequency scaling, a
 speed-up measured by two runs made at different times is not a measurement. Here the selected
 benchmarks run in fresh processes, alternately under the installed infoseek (A) and under the
 checkout at ``DIR`` (B, for example ``git worktree add ../base 310eb30``), ``--rounds`` times:
-A B A B ... Each round gives both medians and their ratio B / A (how many times faster A is), and
-the table reports every round and the median of the ratios.
+A B A B ... Each round gives both medians (or, with ``--statistic mean``, both means: what a
+benchmark with rare expensive calls, such as ``beacon_v1``'s steps with moves, costs on
+average) and their ratio B / A (how many times faster A is), and the table reports every round
+and the median of the ratios.
 
 The checkout is imported through a temporary folder ``infoseek/`` of links to its ``envs/``,
 ``planners/``, ``baselines/`` and ``experiments/`` put first on ``PYTHONPATH`` (the layout the
@@ -76,8 +78,11 @@ def known_benchmarks(python_path: Path) -> list[str]:
     return list(json.loads(done.stdout))
 
 
-def _medians(selected: list[str], repeats: int, python_path: Path | None) -> dict[str, float]:
-    """Median ms of each selected benchmark, from one fresh ``infoseek timing`` process."""
+def _statistics(
+    selected: list[str], repeats: int, python_path: Path | None, statistic: str = "median"
+) -> dict[str, float]:
+    """``statistic`` (``median`` or ``mean``) ms of each selected benchmark's calls, from one
+    fresh ``infoseek timing`` process."""
     environ = _environment(python_path)
     with tempfile.TemporaryDirectory() as scratch:
         out = Path(scratch) / "timing.json"
@@ -91,14 +96,20 @@ def _medians(selected: list[str], repeats: int, python_path: Path | None) -> dic
             last = (done.stderr.strip().splitlines() or ["no output"])[-1]
             raise ValueError(f"infoseek timing of {which} failed: {last}")
         rows = json.loads(out.read_text())["results"]
-    return {name: float(rows[name]["median_ms"]) for name in selected}
+    return {name: float(rows[name][f"{statistic}_ms"]) for name in selected}
 
 
 def run_alternating(
-    baseline: Path, selected: list[str], repeats: int, rounds: int, json_path: Path | None
+    baseline: Path,
+    selected: list[str],
+    repeats: int,
+    rounds: int,
+    json_path: Path | None,
+    statistic: str = "median",
 ) -> int:
     """Alternate this version (A) and the checkout ``baseline`` (B) ``rounds`` times; print
-    each round's medians and ratio B / A and the median ratio; returns the exit code.
+    each round's ``statistic`` of the calls and ratio B / A and the median ratio; returns the
+    exit code.
 
     Args:
         baseline: The other version's checkout.
@@ -106,21 +117,27 @@ def run_alternating(
         repeats: Timed calls per benchmark and process.
         rounds: Alternations (at least 1).
         json_path: Where to write the results as JSON, or ``None``.
+        statistic: ``"median"`` or ``"mean"`` of each process's calls.
     """
     if isinstance(rounds, bool) or rounds < 1:
         raise ValueError(f"--rounds must be a positive integer, got {rounds}")
+    if statistic not in ("median", "mean"):
+        raise ValueError(f"--statistic must be 'median' or 'mean', got {statistic!r}")
     with tempfile.TemporaryDirectory() as scratch:
         tree = checkout_tree(baseline, Path(scratch))
         known = set(known_benchmarks(tree))
         shared = [name for name in selected if name in known]
         rows: dict[str, list[dict[str, float]]] = {name: [] for name in selected}
         for _ in range(rounds):
-            ours = _medians(selected, repeats, None)
-            theirs = _medians(shared, repeats, tree) if shared else {}
+            ours = _statistics(selected, repeats, None, statistic)
+            theirs = _statistics(shared, repeats, tree, statistic) if shared else {}
             for name in selected:
                 b_ms = theirs.get(name, math.nan)
                 rows[name].append({"a_ms": ours[name], "b_ms": b_ms, "ratio": b_ms / ours[name]})
-    print(f"A: this version; B: {baseline}; {rounds} rounds A B A B ..., {repeats} calls each")
+    print(
+        f"A: this version; B: {baseline}; {rounds} rounds A B A B ..., {repeats} calls each, "
+        f"their {statistic} compared"
+    )
     print(f"{'benchmark':<34} {'round':>5} {'A ms':>9} {'B ms':>9} {'B / A':>7}")
     summary: dict[str, Any] = {}
     for name, per_round in rows.items():
@@ -139,5 +156,6 @@ def run_alternating(
         summary[name] = {"rounds": per_round, "median_ratio": float(np.median(ratios))}
     if json_path is not None:
         json_path.parent.mkdir(parents=True, exist_ok=True)
-        json_path.write_text(json.dumps({"baseline": str(baseline), "results": summary}, indent=2))
+        report = {"baseline": str(baseline), "statistic": statistic, "results": summary}
+        json_path.write_text(json.dumps(report, indent=2))
     return 0

@@ -99,21 +99,34 @@ def test_timing_planned_beacon_v1_step_smoke(
     assert row["mean_ms"] == pytest.approx(row["median_ms"]) and row["median_ms"] > 0.0
 
 
+@pytest.mark.parametrize("statistic", ["median", "mean"])
 def test_timing_alternates_with_a_baseline_checkout(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    statistic: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """--baseline runs both versions in fresh processes, A B per round, and reports B / A (here
-    the baseline is this checkout itself, imported through the temporary package tree)."""
+    """--baseline runs both versions in fresh processes, A B per round, and reports B / A of
+    the calls' median or mean (here the baseline is this checkout itself, imported through the
+    temporary package tree)."""
     root = Path(__file__).resolve().parents[1]
     out = tmp_path / "ab.json"
-    argv = ["timing", "--repeats", "2", "--only", "env_step_bearings_4", "--rounds", "1"]
+    argv = ["timing", "--repeats", "3", "--only", "env_step_bearings_4", "--rounds", "1"]
+    argv += ["--statistic", statistic]
     assert main([*argv, "--baseline", str(root), "--json", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "B / A" in printed and "env_step_bearings_4" in printed
-    (row,) = json.loads(out.read_text())["results"]["env_step_bearings_4"]["rounds"]
+    assert f"their {statistic} compared" in printed
+    report = json.loads(out.read_text())
+    assert report["statistic"] == statistic
+    (row,) = report["results"]["env_step_bearings_4"]["rounds"]
     assert row["ratio"] == pytest.approx(row["b_ms"] / row["a_ms"])
     assert main([*argv, "--baseline", str(tmp_path)]) == 2  # not a checkout: before any work
     assert "is not an infoseek checkout" in capsys.readouterr().err
+
+
+def test_timing_statistic_needs_a_baseline(capsys: pytest.CaptureFixture[str]) -> None:
+    argv = ["timing", "--repeats", "1", "--only", "env_step_bearings_4", "--statistic", "mean"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--statistic compares --baseline runs" in err and len(err.strip().splitlines()) == 1
 
 
 def test_bench_smoke_stores_and_summarises(
