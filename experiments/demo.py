@@ -7,7 +7,9 @@ MMSE estimate (the metric of the paper's Fig. 1), the estimation error against t
 (read through the evaluation accessor, never shown to the planner), the belief entropy and the
 planning time, above a progress bar with the time left. Frames rendered by the environment are
 written as an animated GIF, and the last frame as a PNG (atomically); an interrupted run (Ctrl-C)
-writes the frames it has and exits with status 130.
+writes the frames it has and exits with status 130. Each frame is reduced to the GIF's 256-colour
+palette on a worker thread while the episode goes on (PIL's own conversion, which it would
+otherwise make when saving: the same file; PIL releases the GIL while it quantises).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -66,7 +69,7 @@ def run_demo(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     stem = f"demo-{args.env}-{args.planner}-{args.agents}agents-seed{args.seed}"
 
-    frames = [env.render()]
+    frames = _GifFrames(env.render())
     print(
         f"{args.env}: {args.agents} x {args.planner}, {args.particles} particles, seed {args.seed}"
     )
@@ -87,8 +90,8 @@ def run_demo(args: argparse.Namespace) -> int:
     gif_path = out / f"{stem}.gif"
     png_path = out / f"{stem}.png"
     duration_ms = int(round(1000.0 / args.fps))
-    _save_atomically(frames, gif_path, format="GIF", duration=duration_ms, loop=0)
-    _save_atomically(frames[-1:], png_path, format="PNG")
+    _save_atomically(frames.images(), gif_path, format="GIF", duration=duration_ms, loop=0)
+    _save_atomically([_image(frames.last)], png_path, format="PNG")
     if interrupted:
         print(f"interrupted after {len(frames) - 1} step(s); the frames so far are written")
     print(f"wrote {gif_path}")
@@ -117,12 +120,58 @@ def _environment_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     return kwargs
 
 
+class _GifFrames:
+    """The demo's frames, each reduced to a 256-colour palette on one worker thread as it
+    arrives (``Image.convert("P", palette=ADAPTIVE)``, what PIL does to RGB frames it saves as a
+    GIF: the file is the same), so that the reduction overlaps the episode.
+
+    Args:
+        first: The first ``(H, W, 3)`` uint8 RGB frame.
+
+    Attributes:
+        last: The last RGB frame appended.
+    """
+
+    def __init__(self, first: np.ndarray) -> None:
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="demo-gif")
+        self._pending: list[Future[Any]] = []
+        self.last = first
+        self.append(first)
+
+    def __len__(self) -> int:
+        return len(self._pending)
+
+    def append(self, frame: np.ndarray) -> None:
+        """Add one ``(H, W, 3)`` uint8 RGB frame."""
+        self.last = frame
+        self._pending.append(self._pool.submit(_palette_image, frame))
+
+    def images(self) -> list[Any]:
+        """Every frame as a palette image, in order (waits for the worker; closes it)."""
+        try:
+            return [pending.result() for pending in self._pending]
+        finally:
+            self._pool.shutdown()
+
+
+def _image(frame: np.ndarray) -> Any:
+    from PIL import Image
+
+    return Image.fromarray(frame)
+
+
+def _palette_image(frame: np.ndarray) -> Any:
+    from PIL import Image
+
+    return _image(frame).convert("P", palette=Image.Palette.ADAPTIVE)
+
+
 def _play(
     env: Any,
     policy: Any,
     observations: dict[str, Any],
     infos: dict[str, Any],
-    frames: list[np.ndarray],
+    frames: _GifFrames,
     bar: Any,
 ) -> None:
     """Step ``env`` with ``policy`` from ``observations`` and ``infos`` to the end of the
@@ -155,12 +204,9 @@ def _step_line(env: Any, step: int, infos: dict[str, Any], plan_ms: float) -> st
     )
 
 
-def _save_atomically(frames: list[np.ndarray], path: Path, format: str, **options: Any) -> None:
-    """Save ``frames`` with PIL to a temporary file, then rename it to ``path``: never a
-    partial image. ``format`` and ``options`` (animation settings) go to ``Image.save``."""
-    from PIL import Image
-
-    images = [Image.fromarray(frame) for frame in frames]
+def _save_atomically(images: list[Any], path: Path, format: str, **options: Any) -> None:
+    """Save PIL ``images`` to a temporary file, then rename it to ``path``: never a partial
+    image. ``format`` and ``options`` (animation settings) go to ``Image.save``."""
     tmp = path.with_name(f".{path.name}.tmp")
     if len(images) > 1:
         options = {**options, "save_all": True, "append_images": images[1:]}

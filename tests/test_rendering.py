@@ -195,6 +195,40 @@ def test_interrupted_demo_writes_the_frames_so_far_and_exits_130(
     assert not list(tmp_path.glob(".*.tmp"))
 
 
+def test_demo_gif_is_the_file_pil_writes_from_the_rgb_frames(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The demo reduces its frames to a palette on a worker thread as they come: the GIF it
+    writes is byte for byte the one PIL writes from the rendered RGB frames."""
+    rendered: list[np.ndarray] = []
+    real_make_env = demo.make_env
+
+    def recording_env(*args: Any, **kwargs: Any) -> Any:
+        env = real_make_env(*args, **kwargs)
+        render = env.render
+
+        def render_and_record() -> Any:
+            frame = render()
+            rendered.append(frame.copy())
+            return frame
+
+        env.render = render_and_record
+        return env
+
+    monkeypatch.setattr(demo, "make_env", recording_env)
+    argv = ["demo", "--steps", "4", "--particles", "200", "--fps", "5", "--no-progress"]
+    assert main([*argv, "--out", str(tmp_path)]) == 0
+    (gif,) = tmp_path.glob("*.gif")
+    images = [Image.fromarray(frame) for frame in rendered]
+    expected = tmp_path / "expected.gif"
+    images[0].save(
+        expected, format="GIF", save_all=True, append_images=images[1:], duration=200, loop=0
+    )
+    assert len(rendered) == 5 and gif.read_bytes() == expected.read_bytes()
+    (png,) = tmp_path.glob("demo-*.png")
+    np.testing.assert_array_equal(np.asarray(Image.open(png).convert("RGB")), rendered[-1])
+
+
 def test_demo_progress_bar_shows_the_time_left(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
