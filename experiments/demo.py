@@ -132,10 +132,11 @@ class _GifFrames:
         last: The last RGB frame appended.
     """
 
+    last: np.ndarray
+
     def __init__(self, first: np.ndarray) -> None:
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="demo-gif")
         self._pending: list[Future[Any]] = []
-        self.last = first
         self.append(first)
 
     def __len__(self) -> int:

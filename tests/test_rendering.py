@@ -146,7 +146,12 @@ def test_every_frame_equals_a_full_draw_of_the_figure(space: str) -> None:
     canvas = renderer.figure.canvas
     whole = canvas.draw
     whole_draws = []
-    canvas.draw = lambda: (whole_draws.append(1), whole())[1]  # counts the renderer's calls
+
+    def counted_draw() -> None:  # the renderer's whole-figure draws, counted
+        whole_draws.append(1)
+        whole()
+
+    canvas.draw = counted_draw
     for step in range(12):
         centre = [30.0, 30.0] if step < 8 else [8.0, 35.0]  # the inset changes corner at 8
         tight = np.column_stack([rng.normal(centre, 0.2, (400, 2)), rng.uniform(0.0, 6.0, 400)])
@@ -159,7 +164,7 @@ def test_every_frame_equals_a_full_draw_of_the_figure(space: str) -> None:
         )
         canvas.draw = whole
         np.testing.assert_array_equal(frame, _full_draw(renderer), err_msg=f"step {step}")
-        canvas.draw = lambda: (whole_draws.append(1), whole())[1]
+        canvas.draw = counted_draw
     assert renderer.inset is not None
     assert len(whole_draws) <= 7  # steps 7-11 (limits and legend unchanged) reuse the pixels
     renderer.close()
