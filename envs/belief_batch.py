@@ -47,6 +47,7 @@ from infoseek.envs.roughening import coordinate_ranges, jitter
 from infoseek.envs.sensors.arrays import has_nan_or_plus_inf
 from infoseek.envs.summaries import mass_grids, masses_within, weighted_means
 from infoseek.envs.targets import StationaryTarget, TargetMotion, TargetSpace
+from infoseek.envs.tempering import metropolis_accept, tempering_exponent
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -76,8 +77,6 @@ TEMPERING_BISECTION_STEPS = 40
 TEMPERING_MOVE_SWEEPS = 5
 TEMPERING_MOVE_SCALE = 1.0
 TEMPERING_MOVE_SHRINK = 0.3
-#: Smallest tempering exponent tried, relative to the remaining exponent (``exp(-60)``).
-_LOG_MIN_LAMBDA = -60.0
 
 
 def _logsumexp(values: FloatArray) -> float:
@@ -452,7 +451,9 @@ class BeliefBatch:
             log_floor = math.log(self.tempering_ess) + _log_ess(log_weights) if tempering else 0.0
             if not tempering or stage >= self.max_tempering_stages or _log_ess(full) >= log_floor:
                 return particles, full - log_z, log_evidence + log_z, stage
-            lam = _tempering_exponent(log_weights, loglik, remaining, log_floor)
+            lam = tempering_exponent(
+                log_weights, loglik, remaining, log_floor, TEMPERING_BISECTION_STEPS
+            )
             partial = log_weights + lam * loglik
             log_z = _logsumexp(partial)
             log_evidence += log_z
@@ -496,12 +497,16 @@ class BeliefBatch:
             proposal_loglik = self._row_log_likelihood(sensor, z, poses, proposal)
             proposal_past = self._past_log_likelihood(past, proposal)
             log_u = np.log(self.rngs[k].random(particles.shape[0]))
-            with np.errstate(invalid="ignore"):  # -inf - -inf (both impossible): rejected
-                log_ratio = exponent * (proposal_loglik - loglik) + (proposal_past - past_loglik)
-                accept = log_u < log_ratio
-            particles[accept] = proposal[accept]
-            loglik[accept] = proposal_loglik[accept]
-            past_loglik[accept] = proposal_past[accept]
+            metropolis_accept(
+                particles,
+                loglik,
+                past_loglik,
+                proposal,
+                proposal_loglik,
+                proposal_past,
+                log_u,
+                exponent,
+            )
             scale *= TEMPERING_MOVE_SHRINK
         return particles, loglik, past_loglik
 
@@ -642,25 +647,3 @@ def _checked_total(sensor: Any, total: FloatArray) -> FloatArray:
             f"sensor {getattr(sensor, 'name', sensor)!r}: log_likelihood returned NaN or +inf"
         )
     return total
-
-
-def _tempering_exponent(
-    log_weights: FloatArray, loglik: FloatArray, remaining: float, log_floor: float
-) -> float:
-    """Largest ``lambda`` in ``(0, remaining]`` with ``log ESS(lw + lambda L) >= log_floor``.
-
-    Bisection on ``log lambda`` over ``[log remaining - 60, log remaining]``; if even the
-    smallest exponent leaves the ESS below the floor (e.g. particles of zero likelihood), that
-    smallest exponent is returned.
-    """
-    hi = math.log(remaining)
-    lo = hi + _LOG_MIN_LAMBDA
-    if _log_ess(log_weights + math.exp(lo) * loglik) < log_floor:
-        return math.exp(lo)
-    for _ in range(TEMPERING_BISECTION_STEPS):
-        mid = 0.5 * (lo + hi)
-        if _log_ess(log_weights + math.exp(mid) * loglik) >= log_floor:
-            lo = mid
-        else:
-            hi = mid
-    return math.exp(lo)

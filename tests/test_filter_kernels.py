@@ -25,6 +25,7 @@ from infoseek.envs.sensors import BeaconSensor, BearingSensor
 from infoseek.envs.sensors.beacon_kernel import summed_beacon_log_likelihood
 from infoseek.envs.sensors.wrapped_normal import summed_log_likelihood
 from infoseek.envs.targets import reflect_into_interval
+from infoseek.envs.tempering import TemperedLogEss, metropolis_accept, tempering_exponent
 
 
 def _log_weights(rng: np.random.Generator, k: int, n: int) -> np.ndarray:
@@ -354,3 +355,89 @@ def test_summed_beacon_likelihood_refuses_bad_arrays() -> None:
     with pytest.raises(TypeError, match="received must be a bool array"):
         summed_beacon_log_likelihood(z[..., 0], poses, particles, received.astype(int), (1, 1, 5))
     assert sensor.summed_log_likelihood(z[:1], poses[:1], particles[:1, :1], received[:1]) is None
+
+
+def _numpy_log_ess(values: np.ndarray) -> float:
+    """log ESS of one row as NumPy calls compute it: ``2 log Z(v) - log Z(2 v)``."""
+
+    def log_z(row: np.ndarray) -> float:
+        peak = float(row.max())
+        if not math.isfinite(peak):
+            return peak
+        return peak + math.log(float(np.exp(row - peak).sum()))
+
+    with np.errstate(invalid="ignore"):
+        return 2.0 * log_z(values) - log_z(2.0 * values)
+
+
+def _numpy_tempering_exponent(
+    log_weights: np.ndarray, loglik: np.ndarray, remaining: float, log_floor: float, steps: int
+) -> float:
+    hi = math.log(remaining)
+    lo = hi - 60.0
+    if _numpy_log_ess(log_weights + math.exp(lo) * loglik) < log_floor:
+        return math.exp(lo)
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        if _numpy_log_ess(log_weights + math.exp(mid) * loglik) >= log_floor:
+            lo = mid
+        else:
+            hi = mid
+    return math.exp(lo)
+
+
+def _same_float(a: float, b: float) -> bool:
+    return a == b or (math.isnan(a) and math.isnan(b))
+
+
+@pytest.mark.parametrize("n", [1, 9, 200, 2000])
+def test_tempering_exponent_is_the_numpy_bisection_bit_for_bit(n: int) -> None:
+    rng = np.random.default_rng(100 + n)
+    found = 0
+    for case in range(40):
+        uniform = case % 2 == 0
+        log_weights = np.full(n, -math.log(n)) if uniform else _log_weights(rng, 1, n)[0]
+        loglik = rng.normal(0.0, 10.0 ** rng.uniform(-1, 3), size=n)
+        loglik[rng.random(n) < 0.2] = -np.inf
+        if case % 10 == 3:
+            loglik[:] = -np.inf  # no particle is possible: the smallest exponent comes back
+        remaining = float(rng.uniform(0.05, 1.0))
+        log_floor = math.log(0.1) + _numpy_log_ess(log_weights)
+        log_ess_at = TemperedLogEss(log_weights, loglik)
+        for exponent in rng.uniform(0.0, 1.0, size=5):
+            tempered = log_weights + exponent * loglik
+            assert _same_float(log_ess_at(exponent), _numpy_log_ess(tempered))
+        lam = tempering_exponent(log_weights, loglik, remaining, log_floor, 40)
+        assert lam == _numpy_tempering_exponent(log_weights, loglik, remaining, log_floor, 40)
+        assert 0.0 < lam <= remaining
+        smallest = math.exp(math.log(remaining) - 60.0)
+        if lam > smallest and n > 1:  # the floor holds at lam, by scipy's logsumexp
+            tempered = log_weights + lam * loglik
+            log_ess = 2.0 * logsumexp(tempered) - logsumexp(2.0 * tempered)
+            assert log_ess >= log_floor - 1e-9
+            found += 1
+    assert found > 0 or n == 1
+
+
+def test_tempering_exponent_refuses_rows_of_two_lengths() -> None:
+    with pytest.raises(ValueError, match="log_weights and log_likelihood"):
+        tempering_exponent(np.zeros(4), np.zeros(5), 1.0, -1.0, 40)
+
+
+def test_metropolis_acceptance_is_the_masked_numpy_update() -> None:
+    rng = np.random.default_rng(5)
+    n, d = 500, 3
+    particles, proposal = rng.normal(size=(n, d)), rng.normal(size=(n, d))
+    loglik, proposal_loglik = rng.normal(size=n), rng.normal(size=n)
+    past, proposal_past = rng.normal(size=n), rng.normal(size=n)
+    loglik[:50] = proposal_loglik[:50] = -np.inf  # both impossible: rejected
+    proposal_past[50:80] = -np.inf
+    log_u = np.log(rng.random(n))
+    with np.errstate(invalid="ignore"):
+        accept = log_u < 0.7 * (proposal_loglik - loglik) + (proposal_past - past)
+    expected = [np.where(accept[:, None], proposal, particles)]
+    expected += [np.where(accept, proposal_loglik, loglik), np.where(accept, proposal_past, past)]
+    metropolis_accept(particles, loglik, past, proposal, proposal_loglik, proposal_past, log_u, 0.7)
+    for got, want in zip([particles, loglik, past], expected, strict=True):
+        assert np.array_equal(got, want)
+    assert 0 < accept.sum() < n and not accept[:80].any()
