@@ -63,11 +63,13 @@ def _environment(python_path: Path | None) -> dict[str, str]:
     return environ
 
 
-def known_benchmarks(python_path: Path) -> list[str]:
-    """The benchmark names of the version imported through ``python_path``."""
+def baseline_timing(python_path: Path) -> tuple[list[str], bool]:
+    """The benchmark names of the version imported through ``python_path``, and whether its
+    ``infoseek timing`` reports the mean of the calls (versions before the mean column report
+    medians only)."""
     script = (
-        "import json; from infoseek.experiments.timing import BENCHMARKS; "
-        "print(json.dumps(list(BENCHMARKS)))"
+        "import inspect, json; from infoseek.experiments import timing; "
+        "print(json.dumps([list(timing.BENCHMARKS), '\"mean_ms\"' in inspect.getsource(timing)]))"
     )
     command = [sys.executable, "-c", script]
     environ = _environment(python_path)
@@ -75,7 +77,8 @@ def known_benchmarks(python_path: Path) -> list[str]:
     if done.returncode != 0:
         last = (done.stderr.strip().splitlines() or ["no output"])[-1]
         raise ValueError(f"--baseline: cannot read its benchmarks: {last}")
-    return list(json.loads(done.stdout))
+    names, reports_mean = json.loads(done.stdout)
+    return list(names), bool(reports_mean)
 
 
 def _statistics(
@@ -125,7 +128,13 @@ def run_alternating(
         raise ValueError(f"--statistic must be 'median' or 'mean', got {statistic!r}")
     with tempfile.TemporaryDirectory() as scratch:
         tree = checkout_tree(baseline, Path(scratch))
-        known = set(known_benchmarks(tree))
+        names, reports_mean = baseline_timing(tree)
+        if statistic == "mean" and not reports_mean:
+            raise ValueError(
+                f"--statistic mean: the infoseek timing of --baseline {baseline} reports "
+                "medians only (a version before the mean column); use --statistic median"
+            )
+        known = set(names)
         shared = [name for name in selected if name in known]
         rows: dict[str, list[dict[str, float]]] = {name: [] for name in selected}
         for _ in range(rounds):

@@ -122,6 +122,23 @@ def test_timing_alternates_with_a_baseline_checkout(
     assert "is not an infoseek checkout" in capsys.readouterr().err
 
 
+def test_timing_mean_refuses_a_baseline_that_reports_medians_only(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A baseline whose ``infoseek timing`` predates the mean column (310eb30, say) cannot be
+    compared by mean: one line, exit 2, before any benchmark runs."""
+    for name in ("envs", "planners", "baselines", "experiments"):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "__init__.py").write_text("")
+    (tmp_path / "experiments" / "timing.py").write_text(
+        'BENCHMARKS = ("env_step_bearings_4",)\nROW = {"median_ms": 1.0}\n'
+    )
+    argv = ["timing", "--repeats", "1", "--only", "env_step_bearings_4", "--rounds", "1"]
+    assert main([*argv, "--statistic", "mean", "--baseline", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "reports medians only" in err and len(err.strip().splitlines()) == 1
+
+
 def test_timing_statistic_needs_a_baseline(capsys: pytest.CaptureFixture[str]) -> None:
     argv = ["timing", "--repeats", "1", "--only", "env_step_bearings_4", "--statistic", "mean"]
     assert main(argv) == 2
