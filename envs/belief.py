@@ -57,8 +57,8 @@ jitter (scale
 ``~ range * N^(-1/d)``) was tried first: it is far too small to carry the particles to a peak
 thousands of its own widths away, and too large (range of a multi-modal set) to keep them on
 a thin likelihood ridge. ``L_k`` of accepted proposals is reused in the next stage.
-``lambda_s in (0, remaining]`` is chosen by
-bisection (on ``log lambda``, :mod:`infoseek.envs.tempering`) so that the ESS after the partial reweighting equals
+``lambda_s in (0, remaining]`` is chosen by bisection (on ``log lambda``,
+:mod:`infoseek.envs.tempering`) so that the ESS after the partial reweighting equals
 ``tempering_ess`` times the ESS before it (``tempering_ess * N`` for the uniform weights that
 resampling leaves); when applying all the remaining exponent keeps the ESS above that floor, or
 at stage ``max_tempering_stages``, the remainder is applied and the weights are kept (the normal
