@@ -9,10 +9,13 @@ the largest exponent :math:`\lambda \in (0, r]` of the remainder :math:`r` that 
 
 with :math:`\log Z(v) = m + \log \sum_n e^{v_n - m}`, :math:`m = \max_n v_n`, and
 :math:`\log \phi` the stage's floor. :func:`tempering_exponent` bisects on :math:`\log \lambda`
-over :math:`[\log r - 60, \log r]` in ``steps`` halvings (the ESS of tempered weights falls as
-the exponent grows, so the bisection keeps the largest exponent it has seen pass); when even
-:math:`\lambda = r e^{-60}` fails (a belief whose particles all have zero likelihood, say) that
-smallest exponent is returned.
+over :math:`[\log r - 60, \log r]` in ``steps`` halvings, keeping the largest exponent it has
+seen pass. From equal weights (those resampling leaves) the ESS falls as the exponent grows:
+:math:`\frac{d}{d\lambda} \log \sum_n p_n^2 = 2 (E_{2 \lambda}[L] - E_\lambda[L]) \ge 0` for
+:math:`p \propto e^{\lambda L}`, the mean of :math:`L` under :math:`p \propto e^{\lambda L}`
+growing with :math:`\lambda`; so there the passing exponents form an interval and the
+bisection finds its end. When even :math:`\lambda = r e^{-60}` fails (a belief whose particles
+all have zero likelihood, say) that smallest exponent is returned.
 
 After resampling, each stage moves the particles by Metropolis sweeps whose target is the
 stage's exact posterior: a proposal :math:`\theta'` of particle :math:`\theta` is accepted when

@@ -404,9 +404,13 @@ def test_tempering_exponent_is_the_numpy_bisection_bit_for_bit(n: int) -> None:
         remaining = float(rng.uniform(0.05, 1.0))
         log_floor = math.log(0.1) + _numpy_log_ess(log_weights)
         log_ess_at = TemperedLogEss(log_weights, loglik)
-        for exponent in rng.uniform(0.0, 1.0, size=5):
+        exponents = np.sort(rng.uniform(0.0, 1.0, size=5))
+        values = [log_ess_at(exponent) for exponent in exponents]
+        for exponent, value in zip(exponents, values, strict=True):
             tempered = log_weights + exponent * loglik
-            assert _same_float(log_ess_at(exponent), _numpy_log_ess(tempered))
+            assert _same_float(value, _numpy_log_ess(tempered))
+        if uniform and np.isfinite(values).all():  # equal weights: the ESS falls (docstring)
+            assert np.all(np.diff(values) <= 1e-9)
         lam = tempering_exponent(log_weights, loglik, remaining, log_floor, 40)
         assert lam == _numpy_tempering_exponent(log_weights, loglik, remaining, log_floor, 40)
         assert 0.0 < lam <= remaining
