@@ -39,6 +39,7 @@ __all__ = [
     "ess_rows",
     "is_uniform",
     "log_ess_rows",
+    "log_normaliser",
     "logsumexp_rows",
     "normalised",
 ]
@@ -48,7 +49,7 @@ DEGENERATE_LOG_EVIDENCE = -700.0
 
 
 @kernel
-def _log_normaliser(peak: float, total: float) -> float:
+def log_normaliser(peak: float, total: float) -> float:
     """``log Z`` of a row from its maximum and the sum of ``exp(value - peak)``:
     ``peak + log(total)`` where ``peak`` is finite, ``peak`` itself otherwise (the C library's
     ``log``, as ``math.log`` calls it)."""
@@ -57,10 +58,10 @@ def _log_normaliser(peak: float, total: float) -> float:
 
 @kernel
 def _log_normalisers(peak: FloatArray, sums: FloatArray) -> FloatArray:
-    """:func:`_log_normaliser` of every row."""
+    """:func:`log_normaliser` of every row."""
     out = np.empty(peak.shape[0])
     for k in range(peak.shape[0]):
-        out[k] = _log_normaliser(peak[k], sums[k])
+        out[k] = log_normaliser(peak[k], sums[k])
     return out
 
 
@@ -127,8 +128,8 @@ def _uniform_log_ess(log_weights: FloatArray) -> tuple[FloatArray, BoolArray]:
         uniform[k] = is_uniform(log_weights[k])
         if uniform[k]:
             c = log_weights[k, 0]
-            once = _log_normaliser(c, float(n))
-            out[k] = 2.0 * once - _log_normaliser(2.0 * c, float(n))
+            once = log_normaliser(c, float(n))
+            out[k] = 2.0 * once - log_normaliser(2.0 * c, float(n))
     return out, uniform
 
 
@@ -188,10 +189,10 @@ def _accepted_rows(
     count = 0
     for k in range(k_rows):
         top = peak[k]
-        log_z[k] = _log_normaliser(top, pairwise_sum(exponentials[k]))
+        log_z[k] = log_normaliser(top, pairwise_sum(exponentials[k]))
         ok = live[k] and math.isfinite(log_z[k]) and log_z[k] >= DEGENERATE_LOG_EVIDENCE
         if ok and tempering:
-            log_z_twice = _log_normaliser(2.0 * top, pairwise_sum(exponentials[k_rows + k]))
+            log_z_twice = log_normaliser(2.0 * top, pairwise_sum(exponentials[k_rows + k]))
             ok = 2.0 * log_z[k] - log_z_twice >= log_floor[k]
         accepted[k] = ok
         count += ok

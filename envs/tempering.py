@@ -40,6 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from infoseek.envs.compiled import kernel, pairwise_sum
+from infoseek.envs.log_weights import log_normaliser
 
 FloatArray = NDArray[np.float64]
 
@@ -81,11 +82,8 @@ def _tempered_exponents(
 def _log_ess(top: float, exponentials: FloatArray) -> float:
     """``2 log Z(v) - log Z(2 v)`` from ``max v`` and the ``exp`` of
     :func:`_tempered_exponents`' rows (``log Z`` is ``max`` itself where that is not finite)."""
-    once = top + math.log(pairwise_sum(exponentials[0])) if math.isfinite(top) else top
-    twice = 2.0 * top
-    if math.isfinite(twice):
-        twice = twice + math.log(pairwise_sum(exponentials[1]))
-    return 2.0 * once - twice
+    once = log_normaliser(top, pairwise_sum(exponentials[0]))
+    return 2.0 * once - log_normaliser(2.0 * top, pairwise_sum(exponentials[1]))
 
 
 class TemperedLogEss:

@@ -82,7 +82,7 @@ def baseline_timing(python_path: Path) -> tuple[list[str], bool]:
 
 
 def _statistics(
-    selected: list[str], repeats: int, python_path: Path | None, statistic: str = "median"
+    selected: list[str], repeats: int, python_path: Path | None, statistic: str
 ) -> dict[str, float]:
     """``statistic`` (``median`` or ``mean``) ms of each selected benchmark's calls, from one
     fresh ``infoseek timing`` process."""
